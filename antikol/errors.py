@@ -1,0 +1,53 @@
+"""Exceptions raised by :mod:`antikol`.
+
+Every exception derives from :class:`AntikolError` and also from the matching built-in
+(``ValueError`` for bad values, ``OSError`` for unreadable inputs) so callers can catch
+either.
+"""
+
+from __future__ import annotations
+
+
+class AntikolError(Exception):
+    """Base class of every error raised by antikol."""
+
+
+class InvalidReportError(AntikolError, ValueError):
+    """A vehicle report has a value outside its valid domain.
+
+    Attributes
+    ----------
+    field : str
+        Name of the offending field (e.g. ``"lat"``).
+    value : object
+        The rejected value.
+    """
+
+    def __init__(self, field: str, value: object, reason: str) -> None:
+        self.field = field
+        self.value = value
+        self.reason = reason
+        super().__init__(f"invalid {field}={value!r}: {reason}")
+
+
+class ProtocolError(AntikolError, ValueError):
+    """A frame or payload cannot be encoded or decoded."""
+
+
+class ProfileError(AntikolError, ValueError):
+    """A braking profile has invalid values or cannot be read."""
+
+
+class ReplayError(AntikolError, ValueError):
+    """A replay log has a malformed row (raised only in strict mode)."""
+
+
+class InputFileError(AntikolError, OSError):
+    """An input file or directory is missing or unreadable."""
+
+
+class UnknownVehicleError(AntikolError, KeyError):
+    """The analyser has no current report for the requested vehicle."""
+
+    def __str__(self) -> str:  # KeyError quotes its argument; keep the sentence readable
+        return str(self.args[0]) if self.args else "unknown vehicle"
