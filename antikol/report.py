@@ -124,9 +124,7 @@ class VehicleReport:
         if self.speed_mps < 0.0:
             raise InvalidReportError("speed_mps", self.speed_mps, "negative speed")
         if self.speed_mps > MAX_SPEED_MPS:
-            raise InvalidReportError(
-                "speed_mps", self.speed_mps, f"above {MAX_SPEED_MPS:g} m/s"
-            )
+            raise InvalidReportError("speed_mps", self.speed_mps, f"above {MAX_SPEED_MPS:g} m/s")
         if not 0.0 <= self.course_deg <= 360.0:
             raise InvalidReportError("course_deg", self.course_deg, "outside 0..360 degrees")
         if self.course_deg == 360.0:
@@ -153,8 +151,10 @@ class VehicleReport:
                     "route", len(self.route), f"more than {MAX_ROUTE_EDGES} edges"
                 )
             for edge in self.route:
-                if isinstance(edge, bool) or not isinstance(edge, int) or not (
-                    0 <= edge <= 0xFFFFFFFF
+                if (
+                    isinstance(edge, bool)
+                    or not isinstance(edge, int)
+                    or not (0 <= edge <= 0xFFFFFFFF)
                 ):
                     raise InvalidReportError("route", edge, "edge ids must be ints in 0..2^32-1")
         if self.track_position is not None and not isinstance(

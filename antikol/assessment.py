@@ -1,0 +1,141 @@
+"""Records produced by the analyser: threats, suppressed vehicles and assessments."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+Level = Literal["none", "advisory", "warning", "emergency"]
+ThreatKind = Literal["rear_end", "head_on", "merge", "crossing", "sector"]
+Method = Literal["track", "sector"]
+
+LEVELS: tuple[Level, ...] = ("none", "advisory", "warning", "emergency")
+_RANK: dict[str, int] = {name: i for i, name in enumerate(LEVELS)}
+
+
+def level_rank(level: str) -> int:
+    """Position of a level in ``LEVELS`` (0 for 'none' up to 3 for 'emergency')."""
+    return _RANK[level]
+
+
+@dataclass(frozen=True, slots=True)
+class Threat:
+    """One other vehicle that endangers the own vehicle.
+
+    Attributes
+    ----------
+    vehicle_id : str
+        The other vehicle.
+    kind : str
+        ``rear_end``, ``head_on``, ``merge``, ``crossing`` (track method) or ``sector``.
+    level : str
+        ``advisory``, ``warning`` or ``emergency``.
+    distance_m : float
+        Gap, metres: along the track when ``method == 'track'``, planar otherwise.
+    closing_speed_mps : float
+        Rate at which the gap shrinks, m/s (negative when opening).
+    ttc_s : float or None
+        Time to collision, s; None when not closing.
+    method : str
+        ``track`` (map-based) or ``sector`` (the paper's rule).
+    zone : str or None
+        Branch label of the zone ahead holding the conflict (track method).
+    bearing_deg : float or None
+        Bearing to the other vehicle (sector method), degrees.
+    probability : float or None
+        Probability of the conflict given the match hypotheses (track method).
+    own_match_probability, other_match_probability : float or None
+        Probabilities of the track matches the threat relied on.
+    ambiguous : bool
+        True when the track matches were ambiguous and the threat was raised because the
+        conflict probability exceeded the analyser's threshold.
+    detail : str
+        Short human-readable explanation.
+    """
+
+    vehicle_id: str
+    kind: ThreatKind
+    level: Level
+    distance_m: float
+    closing_speed_mps: float
+    ttc_s: float | None
+    method: Method
+    zone: str | None = None
+    bearing_deg: float | None = None
+    probability: float | None = None
+    own_match_probability: float | None = None
+    other_match_probability: float | None = None
+    ambiguous: bool = False
+    detail: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Suppressed:
+    """A vehicle the sector rule would flag but the map cleared.
+
+    Attributes
+    ----------
+    vehicle_id : str
+    reason : str
+        e.g. ``parallel_track``, ``not_reachable``, ``grade_separated``, ``opening``.
+    distance_m : float
+        Planar distance, metres.
+    bearing_deg : float
+        Bearing from the own vehicle, degrees.
+    """
+
+    vehicle_id: str
+    reason: str
+    distance_m: float
+    bearing_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class Assessment:
+    """The analyser's verdict for one own vehicle at one time.
+
+    Attributes
+    ----------
+    own_id : str
+    t : float
+        Time of the assessment, s.
+    level : str
+        Highest level among the threats (``none`` when there is none).
+    threats : tuple of Threat
+        Most severe first, then nearest first.
+    suppressed : tuple of Suppressed
+        Vehicles the sector rule would have flagged but the map cleared.
+    method : str
+        ``track`` when the own vehicle was matched to the map, otherwise ``sector``.
+    """
+
+    own_id: str
+    t: float
+    level: Level
+    threats: tuple[Threat, ...] = field(default_factory=tuple)
+    suppressed: tuple[Suppressed, ...] = field(default_factory=tuple)
+    method: Method = "sector"
+
+    @property
+    def lamp(self) -> bool:
+        """The paper's warning lamp: on at level ``warning`` or above."""
+        return level_rank(self.level) >= level_rank("warning")
+
+    @property
+    def primary(self) -> Threat | None:
+        """The most severe, nearest threat, or None."""
+        return self.threats[0] if self.threats else None
+
+
+def sort_threats(threats: list[Threat]) -> tuple[Threat, ...]:
+    """Most severe first, nearest first within a level."""
+    return tuple(sorted(threats, key=lambda th: (-level_rank(th.level), th.distance_m)))
+
+
+def highest_level(threats: tuple[Threat, ...] | list[Threat]) -> Level:
+    """Highest level among threats, ``none`` if empty."""
+    best: Level = "none"
+    for th in threats:
+        if level_rank(th.level) > level_rank(best):
+            best = th.level
+    return best

@@ -1,0 +1,152 @@
+"""The 2008 paper's sector rule: a circular sector ahead of the own vehicle.
+
+A vehicle is a threat when its planar distance (formula 8) is below ``d_col_m`` and the
+bearing to it (formula 9) lies within ``half_angle_deg`` of the own course. The nearest such
+vehicle is the primary threat. This rule is also the fallback of the track-aware analyser
+whenever no map is loaded or a vehicle cannot be matched to a track.
+
+Standing still: a GPS course over ground is noise when the vehicle barely moves, so the
+course used by the rule is the last course reported at or above ``min_speed_for_course_mps``
+(:class:`CourseKeeper`). A vehicle that has never moved fast enough has no known course and
+raises no sector alarm of its own: it cannot run into anything while it stands, and the
+vehicles approaching it see it in their own sectors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from antikol.geometry import angle_difference_deg, paper_offsets
+from antikol.report import VehicleReport
+
+
+@dataclass(frozen=True, slots=True)
+class SectorRule:
+    """The paper's sensitivity sector.
+
+    Parameters
+    ----------
+    d_col_m : float
+        Collision threshold distance (radius of the sector), metres. Paper: 300 m.
+    half_angle_deg : float
+        Half-angle of the sector around the own course, degrees. Paper: 15 degrees.
+    min_speed_for_course_mps : float
+        Below this speed the reported course is not trusted and the last trusted one is
+        kept (see :class:`CourseKeeper`), m/s.
+    """
+
+    d_col_m: float = 300.0
+    half_angle_deg: float = 15.0
+    min_speed_for_course_mps: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.d_col_m) or self.d_col_m <= 0:
+            raise ValueError(f"d_col_m must be a positive distance in metres, got {self.d_col_m}")
+        if not 0 < self.half_angle_deg <= 180:
+            raise ValueError(f"half_angle_deg must be in (0, 180], got {self.half_angle_deg}")
+        if self.min_speed_for_course_mps < 0:
+            raise ValueError("min_speed_for_course_mps must be >= 0")
+
+    def inside(
+        self, distance_m: npt.ArrayLike, bearing_deg: npt.ArrayLike, course_deg: float
+    ) -> npt.NDArray[np.bool_]:
+        """Whether targets at given distances and bearings lie in the sector.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Planar distances to the targets, metres.
+        bearing_deg : array_like
+            Bearings to the targets, degrees clockwise from north.
+        course_deg : float
+            Own course, degrees clockwise from north.
+
+        Returns
+        -------
+        ndarray of bool
+        """
+        off = np.abs(angle_difference_deg(np.asarray(bearing_deg, dtype=float), course_deg))
+        return np.asarray(
+            (np.asarray(distance_m) < self.d_col_m) & (off <= self.half_angle_deg), dtype=bool
+        )
+
+    def evaluate(
+        self, own: VehicleReport, others: list[VehicleReport], *, course_deg: float | None = None
+    ) -> list[SectorHit]:
+        """Every other vehicle inside the own sector, nearest first.
+
+        Parameters
+        ----------
+        own : VehicleReport
+            The own vehicle's current report.
+        others : list of VehicleReport
+            Reports of the other vehicles.
+        course_deg : float, optional
+            Course to use instead of ``own.course_deg`` (e.g. from :class:`CourseKeeper`).
+            ``None`` uses the report's course.
+
+        Returns
+        -------
+        list of SectorHit
+            One entry per vehicle in the sector, sorted by distance.
+        """
+        if not others:
+            return []
+        course = own.course_deg if course_deg is None else course_deg
+        distance, bearing = self.measure(own, others)
+        mask = self.inside(distance, bearing, course)
+        hits = [
+            SectorHit(others[i].vehicle_id, float(distance[i]), float(bearing[i]))
+            for i in np.flatnonzero(mask)
+        ]
+        hits.sort(key=lambda h: h.distance_m)
+        return hits
+
+    @staticmethod
+    def measure(
+        own: VehicleReport, others: list[VehicleReport]
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """Planar distances (m) and bearings (deg) from the own vehicle, formulas (4)-(9)."""
+        lat = np.fromiter((o.lat for o in others), dtype=float, count=len(others))
+        lon = np.fromiter((o.lon for o in others), dtype=float, count=len(others))
+        return paper_offsets(own.lat, own.lon, lat, lon)
+
+
+@dataclass(frozen=True, slots=True)
+class SectorHit:
+    """A vehicle inside the sector: its id, planar distance (m) and bearing (deg)."""
+
+    vehicle_id: str
+    distance_m: float
+    bearing_deg: float
+
+
+@dataclass
+class CourseKeeper:
+    """Remembers each vehicle's last trustworthy course.
+
+    Parameters
+    ----------
+    min_speed_mps : float
+        Reports slower than this keep the previously trusted course, m/s.
+    """
+
+    min_speed_mps: float = 1.0
+    _courses: dict[str, float] = field(default_factory=dict)
+
+    def update(self, report: VehicleReport) -> float | None:
+        """Record a report and return the course to use for it (deg), or None if unknown."""
+        if report.speed_mps >= self.min_speed_mps:
+            self._courses[report.vehicle_id] = report.course_deg
+        return self._courses.get(report.vehicle_id)
+
+    def course(self, vehicle_id: str) -> float | None:
+        """The trusted course of a vehicle, degrees, or None when never moving fast enough."""
+        return self._courses.get(vehicle_id)
+
+    def forget(self, vehicle_id: str) -> None:
+        """Drop a vehicle (e.g. when it leaves the vehicle table)."""
+        self._courses.pop(vehicle_id, None)
