@@ -1,0 +1,603 @@
+"""Track topology from raw ways: splitting, merging, node classes, directions, conflicts.
+
+The functions here are pure: they take plain data (node ids, local coordinates, tags) and
+return plain data. :mod:`trackmap.build` runs them in order and assembles a
+:class:`trackmap.network.TrackMap`.
+
+Node classes follow the rule OSRD uses for inferring track topology: count the edges
+meeting at a node and the pairs of them that a vehicle can pass straight through
+(deflection at most ``max_deflection_deg``):
+
+===========  =================  =================
+edges        straight pairs     class
+===========  =================  =================
+1            -                  ``buffer_stop``
+2            1                  ``link``
+3            2                  ``point_switch``
+4            2 (disjoint)       ``diamond_crossing``
+4            4                  ``double_slip``
+otherwise                       ``unknown`` (reported by ``check``)
+===========  =================  =================
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+
+from trackmap.sources import MARKED_SERVICES
+
+FloatArray = npt.NDArray[np.float64]
+
+#: An edge end: (edge index, 0 for the start vertex or 1 for the end vertex).
+EdgeEnd = tuple[int, int]
+
+
+# -- tags ---------------------------------------------------------------------------------
+def direction_tag(tags: Mapping[str, str]) -> tuple[int, str]:
+    """Running direction a way's tags declare, relative to its node order.
+
+    Returns
+    -------
+    (direction, source)
+        direction +1 (node order), -1 (against it) or 0 (both ways); source
+        ``preferred_direction``, ``oneway`` or ``none``.
+    """
+    pref = tags.get("railway:preferred_direction")
+    if pref in ("forward", "backward", "both"):
+        return {"forward": 1, "backward": -1, "both": 0}[pref], "preferred_direction"
+    oneway = tags.get("oneway")
+    if oneway in ("yes", "true", "1"):
+        return 1, "oneway"
+    if oneway in ("-1", "reverse"):
+        return -1, "oneway"
+    if oneway in ("no", "false", "0"):
+        return 0, "oneway"
+    return 0, "none"
+
+
+_SPEED = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*(km/h|kmh|kph|mph|knots)?\s*$")
+
+
+def parse_maxspeed_mps(value: str | None) -> float | None:
+    """``maxspeed`` tag to m/s (``"50"``, ``"50 km/h"``, ``"30 mph"``); None if unusable."""
+    if not value:
+        return None
+    m = _SPEED.match(value.split(";")[0])
+    if not m:
+        return None
+    number = float(m.group(1))
+    unit = m.group(2) or "km/h"
+    factor = {"km/h": 1 / 3.6, "kmh": 1 / 3.6, "kph": 1 / 3.6, "mph": 0.44704, "knots": 1852 / 3600}
+    speed = number * factor[unit]
+    return speed if 0 < speed < 150 else None
+
+
+def parse_layer(tags: Mapping[str, str]) -> int:
+    """OSM ``layer`` as an int (0 when absent or unparsable)."""
+    try:
+        return int(float(tags.get("layer", "0")))
+    except ValueError:
+        return 0
+
+
+def _yes(tags: Mapping[str, str], key: str) -> bool:
+    value = tags.get(key)
+    return value is not None and value not in ("no", "false", "0")
+
+
+@dataclass(frozen=True, slots=True)
+class TrackAttributes:
+    """The attributes that must be equal along one edge."""
+
+    kind: str
+    service: str | None
+    layer: int
+    bridge: bool
+    tunnel: bool
+    maxspeed_mps: float | None
+
+
+def track_attributes(tags: Mapping[str, str]) -> TrackAttributes:
+    """Edge-relevant attributes of a way."""
+    service = tags.get("service")
+    return TrackAttributes(
+        kind=tags.get("railway", "tram"),
+        service=service if service in MARKED_SERVICES else None,
+        layer=parse_layer(tags),
+        bridge=_yes(tags, "bridge"),
+        tunnel=_yes(tags, "tunnel"),
+        maxspeed_mps=parse_maxspeed_mps(tags.get("maxspeed")),
+    )
+
+
+# -- splitting and merging ----------------------------------------------------------------
+@dataclass
+class Piece:
+    """A run of nodes with uniform attributes (a way piece, later a merged edge)."""
+
+    node_ids: list[int]
+    way_ids: list[int]
+    attrs: TrackAttributes
+    direction: int
+    direction_source: str
+    name: str | None = None
+
+    def reversed(self) -> Piece:
+        return Piece(
+            self.node_ids[::-1],
+            self.way_ids[::-1],
+            self.attrs,
+            -self.direction,
+            self.direction_source,
+            self.name,
+        )
+
+
+def split_ways(ways: Sequence[tuple[int, Sequence[int], Mapping[str, str]]]) -> list[Piece]:
+    """Split ways at every node they share with another way (or revisit).
+
+    Parameters
+    ----------
+    ways : sequence of (way_id, node_ids, tags)
+
+    Returns
+    -------
+    list of Piece
+        Pieces whose interior nodes belong to no other piece.
+    """
+    uses: dict[int, int] = defaultdict(int)
+    for _, nodes, _ in ways:
+        for n in nodes:
+            uses[n] += 1
+    pieces: list[Piece] = []
+    for way_id, nodes, tags in ways:
+        attrs = track_attributes(tags)
+        direction, source = direction_tag(tags)
+        start = 0
+        for i in range(1, len(nodes)):
+            if i == len(nodes) - 1 or uses[nodes[i]] > 1:
+                pieces.append(
+                    Piece(
+                        list(nodes[start : i + 1]),
+                        [way_id],
+                        attrs,
+                        direction,
+                        source,
+                        tags.get("name"),
+                    )
+                )
+                start = i
+    return pieces
+
+
+def merge_chains(pieces: list[Piece]) -> list[Piece]:
+    """Join pieces through nodes where exactly two pieces meet with equal attributes.
+
+    Direction tags must agree after orienting the pieces, so two one-way pieces running
+    head to head stay separate (``check`` reports them).
+    """
+    ends: dict[int, list[tuple[int, int]]] = defaultdict(list)
+    for i, p in enumerate(pieces):
+        ends[p.node_ids[0]].append((i, 0))
+        ends[p.node_ids[-1]].append((i, 1))
+
+    def mergeable(node: int) -> bool:
+        return len(ends[node]) == 2 and ends[node][0][0] != ends[node][1][0]
+
+    used = [False] * len(pieces)
+    merged: list[Piece] = []
+    for i in range(len(pieces)):
+        if used[i]:
+            continue
+        used[i] = True
+        chain = Piece(
+            list(pieces[i].node_ids),
+            list(pieces[i].way_ids),
+            pieces[i].attrs,
+            pieces[i].direction,
+            pieces[i].direction_source,
+            pieces[i].name,
+        )
+        for forward in (True, False):
+            while True:
+                node = chain.node_ids[-1] if forward else chain.node_ids[0]
+                if not mergeable(node) or chain.node_ids[0] == chain.node_ids[-1]:
+                    break
+                (a, ea), (b, eb) = ends[node]
+                j, ej = (b, eb) if used[a] else (a, ea)
+                if used[j]:
+                    break
+                nxt = pieces[j]
+                # orient the next piece so that it continues the chain
+                if forward:
+                    nxt = nxt if ej == 0 else nxt.reversed()
+                else:
+                    nxt = nxt if ej == 1 else nxt.reversed()
+                if nxt.attrs != chain.attrs or nxt.direction != chain.direction:
+                    break
+                used[j] = True
+                if forward:
+                    chain.node_ids.extend(nxt.node_ids[1:])
+                    chain.way_ids.extend(w for w in nxt.way_ids if w != chain.way_ids[-1])
+                else:
+                    chain.node_ids[:0] = nxt.node_ids[:-1]
+                    chain.way_ids[:0] = [w for w in nxt.way_ids if w != chain.way_ids[0]]
+                if chain.direction_source == "none":
+                    chain.direction_source = nxt.direction_source
+                chain.name = chain.name or nxt.name
+        merged.append(chain)
+    return merged
+
+
+# -- geometry helpers ---------------------------------------------------------------------
+def cumulative_length(xy: FloatArray) -> FloatArray:
+    """Cumulative length along a polyline (n, 2) -> (n,), metres."""
+    seg = np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))
+    return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def point_at(xy: FloatArray, cum: FloatArray, s: float) -> FloatArray:
+    """Point at arc length ``s`` along a polyline (clamped to its ends)."""
+    s = min(max(s, 0.0), float(cum[-1]))
+    i = int(np.searchsorted(cum, s, side="right") - 1)
+    i = min(max(i, 0), len(cum) - 2)
+    span = cum[i + 1] - cum[i]
+    f = 0.0 if span <= 0 else (s - cum[i]) / span
+    return np.asarray(xy[i] + f * (xy[i + 1] - xy[i]), dtype=float)
+
+
+def end_tangent(xy: FloatArray, cum: FloatArray, end: int, probe_m: float) -> FloatArray:
+    """Unit vector pointing from an edge end into the edge, measured over ``probe_m``."""
+    length = float(cum[-1])
+    d = min(probe_m, length)
+    vec = point_at(xy, cum, d) - xy[0] if end == 0 else point_at(xy, cum, length - d) - xy[-1]
+    norm = math.hypot(vec[0], vec[1])
+    if norm == 0:
+        return np.array([0.0, 0.0])
+    return np.asarray(vec / norm, dtype=float)
+
+
+def deflection_deg(u: FloatArray, v: FloatArray) -> float:
+    """Deflection of a move in along ``-u`` and out along ``v``: 0 straight, 180 reversal.
+
+    ``u`` and ``v`` are the unit vectors pointing from the node into each edge.
+    """
+    cos = float(np.clip(-(u @ v), -1.0, 1.0))
+    return math.degrees(math.acos(cos))
+
+
+# -- node classes -------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class NodeTopology:
+    """Class and allowed moves of one junction node."""
+
+    cls: str
+    ends: tuple[EdgeEnd, ...]
+    allowed: tuple[tuple[int, int], ...]  # pairs of indices into ``ends``
+    deflections: tuple[float, ...]  # per allowed pair, degrees
+
+
+def classify_node(
+    ends: Sequence[EdgeEnd],
+    tangents: Sequence[FloatArray],
+    *,
+    max_deflection_deg: float,
+    through_pairs: Sequence[tuple[int, int]] = (),
+    tags: Mapping[str, str] | None = None,
+    link_max_deflection_deg: float = 90.0,
+) -> NodeTopology:
+    """Classify a node from the directions of the edges meeting there.
+
+    Parameters
+    ----------
+    ends : sequence of EdgeEnd
+        The edge ends at the node.
+    tangents : sequence of ndarray
+        Unit vectors from the node into each edge.
+    max_deflection_deg : float
+        Largest deflection of a straight-enough pair, degrees.
+    through_pairs : sequence of (i, j)
+        Pairs of ends that belong to one OSM way passing through the node.
+    tags : mapping, optional
+        The node's own tags. ``railway=switch``, ``railway=railway_crossing`` and
+        ``railway:switch=double_slip|single_slip`` override the geometric rule.
+    link_max_deflection_deg : float
+        Largest deflection still passable at a plain link (2 edges), degrees.
+
+    Notes
+    -----
+    Untagged, a node where exactly two OSM ways cross (each passing straight through) is a
+    diamond crossing: OSM marks slips with ``railway:switch``, and a tram curve crossing
+    the opposite track meets it at 20-35 degrees, an angle the geometric rule alone would
+    read as a double slip.
+    """
+    tags = tags or {}
+    n = len(ends)
+    defl = {(i, j): deflection_deg(tangents[i], tangents[j]) for i, j in combinations(range(n), 2)}
+    straight = [pr for pr, d in defl.items() if d <= max_deflection_deg]
+    passable = [pr for pr, d in defl.items() if d <= link_max_deflection_deg]
+    switch_tag = tags.get("railway:switch")
+    cls: str
+    allowed: list[tuple[int, int]]
+    if n == 1:
+        cls, allowed = "buffer_stop", []
+    elif n == 2:
+        cls, allowed = "link", passable
+    elif n == 3 and (tags.get("railway") == "switch" or switch_tag in ("default", "wye", "abt")):
+        # a tagged switch: the trunk is the end the other two diverge from
+        branch_pair = max(defl, key=lambda pr: defl[pr])
+        cls, allowed = "point_switch", [pr for pr in defl if pr != branch_pair]
+    elif n == 4 and switch_tag in ("double_slip", "single_slip"):
+        cls, allowed = "double_slip", straight
+    elif n == 4 and (tags.get("railway") == "railway_crossing" or _two_disjoint(through_pairs)):
+        pairs = list(through_pairs) if _two_disjoint(through_pairs) else _straightest_disjoint(defl)
+        cls, allowed = (
+            "diamond_crossing",
+            [pr for pr in pairs if defl[pr] <= link_max_deflection_deg],
+        )
+    elif n == 3 and len(straight) == 2:
+        cls, allowed = "point_switch", straight
+    elif n == 4 and len(straight) == 2 and _two_disjoint(straight):
+        cls, allowed = "diamond_crossing", straight
+    elif n == 4 and len(straight) == 4:
+        cls, allowed = "double_slip", straight
+    else:
+        cls, allowed = "unknown", straight
+    allowed = sorted(allowed)
+    return NodeTopology(
+        cls=cls,
+        ends=tuple(ends),
+        allowed=tuple(allowed),
+        deflections=tuple(defl[pr] for pr in allowed),
+    )
+
+
+def _two_disjoint(pairs: Sequence[tuple[int, int]]) -> bool:
+    return len(pairs) == 2 and not set(pairs[0]) & set(pairs[1])
+
+
+def _straightest_disjoint(defl: dict[tuple[int, int], float]) -> list[tuple[int, int]]:
+    options = [((0, 1), (2, 3)), ((0, 2), (1, 3)), ((0, 3), (1, 2))]
+    best = min(options, key=lambda o: max(defl[o[0]], defl[o[1]]))
+    return list(best)
+
+
+# -- running direction from the driving side ----------------------------------------------
+@dataclass(frozen=True, slots=True)
+class SideEvidence:
+    """Where an edge's neighbouring parallel tracks lie."""
+
+    samples: int
+    left: int
+    right: int
+
+
+def parallel_neighbours(
+    lines: Sequence[shapely.LineString],
+    candidates: Sequence[int],
+    *,
+    min_spacing_m: float,
+    max_spacing_m: float,
+    step_m: float = 5.0,
+    max_angle_deg: float = 20.0,
+) -> dict[int, SideEvidence]:
+    """For each candidate edge, count samples with a parallel track to its left or right.
+
+    A sample point every ``step_m`` along the edge has a neighbour when another edge lies
+    between ``min_spacing_m`` and ``max_spacing_m`` away, running parallel (within
+    ``max_angle_deg``, either orientation).
+    """
+    tree = shapely.STRtree(list(lines))
+    evidence: dict[int, SideEvidence] = {}
+    for e in candidates:
+        line = lines[e]
+        length = line.length
+        n = max(int(length // step_m), 1)
+        s = (np.arange(n) + 0.5) * length / n
+        pts = shapely.line_interpolate_point(line, s)
+        ahead = shapely.line_interpolate_point(line, np.minimum(s + 1.0, length))
+        behind = shapely.line_interpolate_point(line, np.maximum(s - 1.0, 0.0))
+        tx = shapely.get_x(ahead) - shapely.get_x(behind)
+        ty = shapely.get_y(ahead) - shapely.get_y(behind)
+        norm = np.hypot(tx, ty)
+        norm[norm == 0] = 1.0
+        tx, ty = tx / norm, ty / norm
+        left = right = 0
+        pt_idx, other_idx = tree.query(pts, predicate="dwithin", distance=max_spacing_m)
+        best: dict[int, tuple[float, int]] = {}
+        for k, o in zip(pt_idx.tolist(), other_idx.tolist(), strict=True):
+            if o == e:
+                continue
+            other = lines[o]
+            d = float(shapely.distance(pts[k], other))
+            if not min_spacing_m <= d <= max_spacing_m:
+                continue
+            along = other.project(pts[k])
+            q = other.interpolate(along)
+            q2 = other.interpolate(min(along + 1.0, other.length))
+            q1 = other.interpolate(max(along - 1.0, 0.0))
+            ox, oy = q2.x - q1.x, q2.y - q1.y
+            on = math.hypot(ox, oy)
+            if on == 0:
+                continue
+            cos = abs((ox * tx[k] + oy * ty[k]) / on)
+            if cos < math.cos(math.radians(max_angle_deg)):
+                continue
+            cross = tx[k] * (q.y - pts[k].y) - ty[k] * (q.x - pts[k].x)
+            side = 1 if cross > 0 else -1
+            if k not in best or d < best[k][0]:
+                best[k] = (d, side)
+        for _, side in best.values():
+            if side > 0:
+                left += 1
+            else:
+                right += 1
+        evidence[e] = SideEvidence(samples=n, left=left, right=right)
+    return evidence
+
+
+def direction_from_side(
+    ev: SideEvidence, driving_side: str, *, min_fraction: float = 0.5, dominance: float = 0.8
+) -> int:
+    """Running direction implied by the side of the neighbouring track (0 if unclear).
+
+    With right-hand running a track whose neighbour lies to its left (looking along the
+    edge) is run in the edge's direction (+1); with left-hand running, the opposite.
+    """
+    total = ev.left + ev.right
+    if ev.samples == 0 or total < min_fraction * ev.samples:
+        return 0
+    if ev.left >= dominance * total:
+        neighbour_left = True
+    elif ev.right >= dominance * total:
+        neighbour_left = False
+    else:
+        return 0
+    forward = neighbour_left if driving_side == "right" else not neighbour_left
+    return 1 if forward else -1
+
+
+# -- conflicts ----------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class CrossingHit:
+    """Two edges whose lines cross away from any shared node."""
+
+    edge_a: int
+    edge_b: int
+    x: float
+    y: float
+    offset_a_m: float
+    offset_b_m: float
+    angle_deg: float
+    grade_separated: bool
+
+
+def find_crossings(
+    lines: Sequence[shapely.LineString],
+    attrs: Sequence[TrackAttributes],
+    node_xy: Sequence[tuple[FloatArray, FloatArray]],
+    *,
+    node_tolerance_m: float = 0.05,
+) -> list[CrossingHit]:
+    """Every point where two edges cross or touch without sharing a node there.
+
+    Parameters
+    ----------
+    lines : sequence of LineString
+        Edge geometries (local metres).
+    attrs : sequence of TrackAttributes
+        Per edge, for grade separation (``layer``, ``bridge``, ``tunnel``).
+    node_xy : sequence of (start_xy, end_xy)
+        Coordinates of each edge's end nodes; touching at a shared end node is topology,
+        not a crossing.
+    """
+    tree = shapely.STRtree(list(lines))
+    left, right = tree.query(list(lines), predicate="intersects")
+    hits: list[CrossingHit] = []
+    for a, b in zip(left.tolist(), right.tolist(), strict=True):
+        if a >= b:
+            continue
+        inter = shapely.intersection(lines[a], lines[b])
+        points = _intersection_points(inter)
+        ends = [*node_xy[a], *node_xy[b]]
+        for p in points:
+            if any(math.hypot(p[0] - e[0], p[1] - e[1]) <= node_tolerance_m for e in ends):
+                continue
+            off_a = float(lines[a].project(shapely.Point(p)))
+            off_b = float(lines[b].project(shapely.Point(p)))
+            angle = _crossing_angle(lines[a], off_a, lines[b], off_b)
+            hits.append(
+                CrossingHit(
+                    edge_a=a,
+                    edge_b=b,
+                    x=float(p[0]),
+                    y=float(p[1]),
+                    offset_a_m=off_a,
+                    offset_b_m=off_b,
+                    angle_deg=angle,
+                    grade_separated=grade_separated(attrs[a], attrs[b]),
+                )
+            )
+    return hits
+
+
+def grade_separated(a: TrackAttributes, b: TrackAttributes) -> bool:
+    """Two tracks cannot meet when on different layers, or either is a bridge or tunnel."""
+    return a.layer != b.layer or a.bridge or b.bridge or a.tunnel or b.tunnel
+
+
+def _intersection_points(geom: shapely.Geometry) -> list[tuple[float, float]]:
+    if geom.is_empty:
+        return []
+    gtype = geom.geom_type
+    if gtype == "Point":
+        return [(geom.x, geom.y)]
+    if gtype in ("MultiPoint", "GeometryCollection", "MultiLineString"):
+        out: list[tuple[float, float]] = []
+        for g in geom.geoms:
+            out.extend(_intersection_points(g))
+        return out
+    if gtype == "LineString":  # collinear overlap: report its midpoint once
+        mid = geom.interpolate(0.5, normalized=True)
+        return [(mid.x, mid.y)]
+    return []
+
+
+def _crossing_angle(
+    a: shapely.LineString, off_a: float, b: shapely.LineString, off_b: float
+) -> float:
+    def direction(line: shapely.LineString, s: float) -> tuple[float, float]:
+        p1 = line.interpolate(max(s - 1.0, 0.0))
+        p2 = line.interpolate(min(s + 1.0, line.length))
+        dx, dy = p2.x - p1.x, p2.y - p1.y
+        n = math.hypot(dx, dy) or 1.0
+        return dx / n, dy / n
+
+    ua, ub = direction(a, off_a), direction(b, off_b)
+    cos = abs(ua[0] * ub[0] + ua[1] * ub[1])
+    return math.degrees(math.acos(min(cos, 1.0)))
+
+
+def fouling_distance(
+    branch: shapely.LineString,
+    branch_from_start: bool,
+    other: shapely.LineString,
+    *,
+    clearance_m: float,
+    step_m: float = 0.5,
+) -> float:
+    """Distance from a switch along one branch to where it clears the other branch.
+
+    Parameters
+    ----------
+    branch, other : LineString
+        The two diverging branches (local metres).
+    branch_from_start : bool
+        True when the branch starts at the switch node.
+    clearance_m : float
+        Track-centre separation at which vehicles on the two branches no longer foul each
+        other, metres.
+
+    Returns
+    -------
+    float
+        Distance along ``branch`` from the switch, metres (the branch length if it never
+        clears).
+    """
+    length = branch.length
+    s = np.arange(step_m, length + step_m, step_m)
+    s = np.minimum(s, length)
+    along = s if branch_from_start else length - s
+    pts = shapely.line_interpolate_point(branch, along)
+    dist = shapely.distance(pts, other)
+    clear = np.flatnonzero(dist >= clearance_m)
+    return float(s[clear[0]]) if len(clear) else float(length)
