@@ -197,7 +197,11 @@ def _running_directions(
 ) -> tuple[list[int], list[str]]:
     directions = [p.direction for p in pieces]
     sources = [p.direction_source if p.direction_source != "none" else "none" for p in pieces]
-    untagged = [i for i, p in enumerate(pieces) if p.direction_source == "none"]
+    # depot fans and sidings are run both ways: only main-line double track follows the
+    # driving side
+    untagged = [
+        i for i, p in enumerate(pieces) if p.direction_source == "none" and p.attrs.service is None
+    ]
     if untagged:
         evidence = parallel_neighbours(
             lines, untagged, min_spacing_m=spacing[0], max_spacing_m=spacing[1]

@@ -876,6 +876,8 @@ class TrackMap:
         self.edge(to_edge)
         if from_direction not in (1, -1):
             raise ValueError(f"direction must be +1 or -1, got {from_direction!r}")
+        if not self.edges[from_edge].allows(from_direction):
+            return None
         if from_edge == to_edge and (to_offset_m - from_offset_m) * from_direction >= 0:
             d = abs(to_offset_m - from_offset_m)
             return RouteDistance(d, from_direction, (from_edge,)) if d <= cutoff_m else None

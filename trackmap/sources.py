@@ -243,7 +243,7 @@ def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceDat
         processor = (
             osmium.FileProcessor(str(path))
             .with_locations()
-            .with_filter(osmium.filter.KeyFilter("railway", "public_transport"))
+            .with_filter(osmium.filter.KeyFilter("railway", "railway:switch", "public_transport"))
         )
         iterator: Iterable[Any] = processor
         if progress:

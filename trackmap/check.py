@@ -1,0 +1,227 @@
+"""Consistency checks of a map: what a maintainer of the OSM data should look at.
+
+Errors (``trackmap check`` exits with status 1 when any is found):
+
+* ``unknown_node`` — a junction that fits no node class;
+* ``short_edge`` — an edge shorter than ``min_edge_m`` (1 m);
+* ``contradictory_direction`` — two one-way edges that meet head to head (or tail to tail)
+  where a vehicle should pass between them;
+* ``dangling_end`` — a track end that stops within ``snap_m`` of another track without
+  joining it (a missing connection rather than a buffer stop).
+
+Warnings:
+
+* ``components`` — the network falls apart into more than one connected piece;
+* ``unnoded_crossing`` — two tracks cross at the same level without a shared node (they are
+  still conflict points; OSM should usually have a crossing node there);
+* ``sharp_link`` — a plain link whose kink exceeds the switch deflection threshold.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+
+from trackmap.network import TrackMap
+from trackmap.topology import cumulative_length, deflection_deg, end_tangent
+
+
+@dataclass(frozen=True, slots=True)
+class Finding:
+    """One problem found by :func:`check`.
+
+    Attributes
+    ----------
+    code : str
+    message : str
+    lon, lat : float or None
+        Where to look, degrees.
+    edges : tuple of int
+    node_id : int or None
+    """
+
+    code: str
+    message: str
+    lon: float | None = None
+    lat: float | None = None
+    edges: tuple[int, ...] = ()
+    node_id: int | None = None
+
+
+@dataclass
+class CheckReport:
+    """Errors and warnings of a map."""
+
+    errors: list[Finding] = field(default_factory=list)
+    warnings: list[Finding] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True when no error was found (warnings allowed)."""
+        return not self.errors
+
+    def counts(self) -> dict[str, int]:
+        """Number of findings per code."""
+        out: dict[str, int] = {}
+        for f in [*self.errors, *self.warnings]:
+            out[f.code] = out.get(f.code, 0) + 1
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {
+            "ok": self.ok,
+            "counts": self.counts(),
+            "errors": [asdict(f) for f in self.errors],
+            "warnings": [asdict(f) for f in self.warnings],
+        }
+
+
+def check(
+    net: TrackMap,
+    *,
+    min_edge_m: float = 1.0,
+    snap_m: float = 1.5,
+    max_deflection_deg: float | None = None,
+) -> CheckReport:
+    """Check a map for data problems.
+
+    Parameters
+    ----------
+    net : TrackMap
+    min_edge_m : float
+        Edges shorter than this are errors, metres.
+    snap_m : float
+        A track end this close to another track without joining it is an error, metres.
+    max_deflection_deg : float, optional
+        Kink above which a link is reported; defaults to the map's build parameter.
+
+    Returns
+    -------
+    CheckReport
+    """
+    report = CheckReport()
+    limit = max_deflection_deg or float(net.metadata.build.get("max_deflection_deg", 35.0))
+    probe = float(net.metadata.build.get("tangent_probe_m", 3.0))
+
+    def at(x: float, y: float) -> tuple[float, float]:
+        lon, lat = net.to_lonlat(x, y)
+        return float(lon), float(lat)
+
+    for node in net.nodes.values():
+        if node.cls == "unknown":
+            report.errors.append(
+                Finding(
+                    "unknown_node",
+                    f"node {node.node_id}: {len(node.ends)} edges meet with "
+                    f"{len(node.allowed)} straight-enough pairs; fits no node class",
+                    node.lon,
+                    node.lat,
+                    tuple(e for e, _ in node.ends),
+                    node.node_id,
+                )
+            )
+    for e in net.edges:
+        if e.length_m < min_edge_m:
+            lon, lat = at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+            report.errors.append(
+                Finding(
+                    "short_edge",
+                    f"edge {e.edge_id} (ways {list(e.way_ids)}) is {e.length_m:.2f} m long",
+                    lon,
+                    lat,
+                    (e.edge_id,),
+                )
+            )
+    for node in net.nodes.values():
+        for i, j in node.allowed:
+            (ea, enda), (eb, endb) = node.ends[i], node.ends[j]
+            da, db = net.edges[ea].direction, net.edges[eb].direction
+            if da == 0 or db == 0:
+                continue
+            # +1 on an edge flows into its end vertex: flowing into the node from end 1
+            into_a = (da == 1) == (enda == 1)
+            into_b = (db == 1) == (endb == 1)
+            if into_a == into_b:
+                how = "head to head" if into_a else "tail to tail"
+                report.errors.append(
+                    Finding(
+                        "contradictory_direction",
+                        f"node {node.node_id}: one-way edges {ea} and {eb} meet {how}",
+                        node.lon,
+                        node.lat,
+                        (ea, eb),
+                        node.node_id,
+                    )
+                )
+        if node.cls == "link" and len(node.ends) == 2:
+            tangents = []
+            for eid, end in node.ends:
+                xy = np.asarray(net.edges[eid].geometry.coords, dtype=float)
+                tangents.append(end_tangent(xy, cumulative_length(xy), end, probe))
+            kink = deflection_deg(tangents[0], tangents[1])
+            if kink > limit:
+                report.warnings.append(
+                    Finding(
+                        "sharp_link",
+                        f"node {node.node_id}: edges bend by {kink:.0f} degrees at a plain link",
+                        node.lon,
+                        node.lat,
+                        tuple(e for e, _ in node.ends),
+                        node.node_id,
+                    )
+                )
+    _dangling(net, snap_m, report)
+    comps = net.components()
+    if len(comps) > 1:
+        sizes = [
+            f"{len(c)} edges / {sum(net.edges[e].length_m for e in c) / 1000:.2f} km" for c in comps
+        ]
+        report.warnings.append(
+            Finding("components", f"{len(comps)} separate networks: " + "; ".join(sizes))
+        )
+    for c in net.conflicts:
+        if c.kind == "crossing":
+            lon, lat = at(c.x, c.y)
+            report.warnings.append(
+                Finding(
+                    "unnoded_crossing",
+                    f"edges {c.edges[0]} and {c.edges[1]} cross at {c.angle_deg or 0:.0f} degrees "
+                    "at the same level without a shared node (kept as a conflict point)",
+                    lon,
+                    lat,
+                    c.edges,
+                )
+            )
+    return report
+
+
+def _dangling(net: TrackMap, snap_m: float, report: CheckReport) -> None:
+    geoms = np.array([e.geometry for e in net.edges], dtype=object)
+    tree = shapely.STRtree(geoms)
+    for node in net.nodes.values():
+        if node.cls != "buffer_stop":
+            continue
+        own = node.ends[0][0]
+        pt = shapely.Point(node.x, node.y)
+        near = [int(i) for i in tree.query(pt, predicate="dwithin", distance=snap_m) if i != own]
+        if not near:
+            continue
+        gap = min(float(shapely.distance(pt, geoms[i])) for i in near)
+        report.errors.append(
+            Finding(
+                "dangling_end",
+                f"node {node.node_id}: track end {gap:.2f} m from edge(s) {near} "
+                "without joining them (missing connection?)",
+                node.lon,
+                node.lat,
+                (own, *near),
+                node.node_id,
+            )
+        )
+
+
+__all__ = ["CheckReport", "Finding", "check"]
