@@ -5,17 +5,23 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-Level = Literal["none", "advisory", "warning", "emergency"]
+from antikol.braking import LEVELS, Level, level_rank, max_level
+
 ThreatKind = Literal["rear_end", "head_on", "merge", "crossing", "sector"]
 Method = Literal["track", "sector"]
 
-LEVELS: tuple[Level, ...] = ("none", "advisory", "warning", "emergency")
-_RANK: dict[str, int] = {name: i for i, name in enumerate(LEVELS)}
-
-
-def level_rank(level: str) -> int:
-    """Position of a level in ``LEVELS`` (0 for 'none' up to 3 for 'emergency')."""
-    return _RANK[level]
+__all__ = [
+    "LEVELS",
+    "Assessment",
+    "Level",
+    "Method",
+    "Suppressed",
+    "Threat",
+    "ThreatKind",
+    "highest_level",
+    "level_rank",
+    "sort_threats",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,8 +140,4 @@ def sort_threats(threats: list[Threat]) -> tuple[Threat, ...]:
 
 def highest_level(threats: tuple[Threat, ...] | list[Threat]) -> Level:
     """Highest level among threats, ``none`` if empty."""
-    best: Level = "none"
-    for th in threats:
-        if level_rank(th.level) > level_rank(best):
-            best = th.level
-    return best
+    return max_level(*(th.level for th in threats))
