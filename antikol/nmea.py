@@ -1,0 +1,964 @@
+"""NMEA 0183 ingest: turn a vehicle's own GPS receiver output into vehicle reports.
+
+The sentences are parsed and checksum-validated by :mod:`pynmeagps`; this module decides
+which sentences belong together, converts units and rejects everything doubtful, counting
+every rejection by reason (:class:`NmeaStats`) and logging it at DEBUG level. Nothing read
+from the stream ever raises out of :class:`NmeaReader`.
+
+Sentences
+---------
+``RMC``
+    Time, date, fix status, position, speed over ground (knots), course over ground. One
+    report is produced per RMC *epoch* (one UTC time of day).
+``GGA``
+    Fix quality and HDOP of the epoch with the same UTC time; they enrich the report
+    (``fix_quality``, ``hdop``). The position of the report is always RMC's.
+``VTG``
+    Course and speed (knots and/or km/h) without a time; it belongs to the epoch in
+    progress and fills RMC's empty course or speed fields (RMC's values win when present).
+
+Talkers ``GP``, ``GN``, ``GL``, ``GA``, ``GB``, ``BD``, ``GQ`` and ``GI`` are accepted and
+may be mixed; sentences of other talkers or types are skipped as ``"unsupported"``.
+
+Decisions
+---------
+Time
+    ``t`` is seconds since the Unix epoch, UTC, from RMC's date (``ddmmyy``, years
+    1969–2068) and time of day; a report at midnight gets the new date from its own RMC, so
+    the day rollover needs no special handling. GGA is matched to RMC by time of day.
+    A report whose ``t`` is not later than the previous report's is skipped
+    (``"duplicate"`` when equal, e.g. a GPRMC and a GNRMC of the same fix;
+    ``"time_backwards"`` when earlier).
+Epoch closing
+    The epoch in progress is closed, and its report emitted, at the first of:
+
+    1. it is *complete*: its RMC has arrived, RMC gives both speed and course or a VTG of
+       the epoch has arrived, and its GGA has arrived (or the stream has not carried any
+       GGA so far). Most receivers thus yield the report on the last sentence of the
+       epoch, with no extra latency;
+    2. a sentence of another epoch arrives (an RMC or GGA with another time of day);
+    3. :meth:`NmeaReader.flush` is called (end of the stream; :func:`read_nmea_file`
+       calls it).
+
+    Consequently the very first report of a stream may lack ``hdop``/``fix_quality``
+    (the reader has not yet learnt that the receiver sends GGA); a VTG arriving after its
+    epoch was closed is skipped as ``"unpaired"``; and an RMC with an empty speed or
+    course field (a stopped vehicle) on a receiver without VTG is emitted one epoch late,
+    when the next epoch starts.
+Void fixes
+    RMC status ``V``, an RMC/VTG mode indicator ``N`` or GGA quality 0 voids the whole
+    epoch: all its sentences are skipped as ``"void_fix"``.
+Missing course
+    Receivers leave the course empty when standing still. When neither RMC nor VTG gives
+    a course and the speed is below ``stopped_speed_mps`` (0.5 m/s by default), the report
+    carries the last course this reader emitted (0.0 if none yet) and the event is counted
+    in :attr:`NmeaStats.flagged` as ``"course_missing"`` (the analyser keeps the last valid
+    course of a slow vehicle anyway). At or above that speed the epoch is skipped as
+    ``"no_course"``; without any speed it is skipped as ``"no_speed"``.
+Units
+    Knots are converted with the exact factor 1852/3600 (:data:`KNOT_MPS`), km/h by
+    dividing by 3.6.
+
+Rejection reasons
+-----------------
+Counted per sentence in :attr:`NmeaStats.skipped` (a line without any ``$`` counts once;
+the sentences of a skipped epoch all count under the epoch's reason):
+``"empty"``, ``"not_nmea"``, ``"garbled"``, ``"checksum"``, ``"unsupported"``,
+``"void_fix"``, ``"no_time"``, ``"invalid_value"``, ``"no_speed"``, ``"no_course"``,
+``"unpaired"``, ``"duplicate"``, ``"time_backwards"`` (see :data:`SKIP_REASONS`).
+
+Writer
+------
+:func:`format_rmc`, :func:`format_gga` and :func:`format_vtg` write checksummed sentences
+from a :class:`~antikol.report.VehicleReport` (for tests and the simulator). Printed
+resolution: time 0.01 s, latitude/longitude 0.00001 arc minute, speed 0.001 kn (and 0.001
+km/h), course 0.01 degree, HDOP 0.01.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import re
+from collections import Counter
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from datetime import UTC, date, datetime, time, timedelta
+from pathlib import Path
+from typing import Final, Literal
+
+from pynmeagps import GET, VALCKSUM, NMEAMessage, NMEAReader
+from pynmeagps.exceptions import NMEAMessageError, NMEAParseError, NMEATypeError
+from pynmeagps.nmeahelpers import calc_checksum
+
+from antikol.errors import InputFileError, InvalidReportError, ProtocolError
+from antikol.report import MAX_SPEED_MPS, VehicleReport
+
+__all__ = [
+    "FILE_SUFFIXES",
+    "GNSS_TALKERS",
+    "KMH_PER_MPS",
+    "KNOT_MPS",
+    "SKIP_REASONS",
+    "STOPPED_SPEED_MPS",
+    "NmeaReader",
+    "NmeaStats",
+    "format_gga",
+    "format_rmc",
+    "format_vtg",
+    "read_nmea_directory",
+    "read_nmea_file",
+]
+
+logger = logging.getLogger(__name__)
+
+#: One knot in m/s (exactly 1852 m per hour).
+KNOT_MPS: Final = 1852.0 / 3600.0
+#: km/h per m/s: a speed in km/h is divided by this to get m/s.
+KMH_PER_MPS: Final = 3.6
+#: Talker identifiers of satellite receivers accepted by the reader and the writer.
+GNSS_TALKERS: Final = frozenset({"GP", "GN", "GL", "GA", "GB", "BD", "GQ", "GI"})
+#: File name suffixes read by :func:`read_nmea_directory` (case-insensitive).
+FILE_SUFFIXES: Final = (".nmea", ".txt", ".log")
+#: Default speed below which a missing course is tolerated, m/s.
+STOPPED_SPEED_MPS: Final = 0.5
+
+#: Why a line or sentence was skipped (keys of :attr:`NmeaStats.skipped`).
+SKIP_REASONS: Final[dict[str, str]] = {
+    "empty": "blank line",
+    "not_nmea": "line without any '$' (text, binary data, a line cut before its '$')",
+    "garbled": "truncated or malformed sentence, missing checksum, unparsable field",
+    "checksum": "checksum does not match the sentence",
+    "unsupported": "sentence type or talker not used (GSA, GSV, GLL, proprietary, ...)",
+    "void_fix": "RMC status V, mode indicator N or GGA quality 0 (whole epoch)",
+    "no_time": "RMC without a valid date and time, or GGA without a valid time",
+    "invalid_value": "a value out of range or not finite (position, speed, course, HDOP)",
+    "no_speed": "neither RMC nor VTG gives a speed",
+    "no_course": "no course while moving at or above the stopped-speed threshold",
+    "unpaired": "GGA or VTG whose epoch has no usable RMC, or that came after it closed",
+    "duplicate": "second sentence of a kind in one epoch, or a report time repeated",
+    "time_backwards": "report time earlier than the previous report's",
+}
+
+#: Sentence types used, with the fields they need at least (through date, HDOP, km/h unit).
+_MIN_FIELDS: Final = {"RMC": 9, "GGA": 8, "VTG": 8}
+_SENTENCE = re.compile(r"\$(?P<content>[^$*]*)\*(?P<checksum>[0-9A-Fa-f]{2})")
+_HEADER = re.compile(r"(?P<talker>[A-Z][A-Z0-9])(?P<type>[A-Z]{3})")
+_HHMMSS = re.compile(r"\d{6}(?:\.\d{1,6})?")
+_DDMMYY = re.compile(r"\d{6}")
+_NOT_IN_FIELDS = re.compile(r"[\s_]")  # Python's float()/int() would tolerate them
+_DDMM = re.compile(r"(?P<deg>\d{2,3})(?P<min>\d{2}\.\d+)")
+_STRIP = " \t\r\n\x00"
+_EPOCH0 = datetime(1970, 1, 1, tzinfo=UTC)
+_MIN_YEAR, _MAX_YEAR = 1969, 2068  # what a two-digit NMEA year can express
+_POS_MODES = {2: "D", 4: "R", 5: "F", 6: "E"}  # GGA quality -> RMC/VTG mode indicator
+
+
+@dataclass
+class NmeaStats:
+    """Counters of one NMEA stream.
+
+    Attributes
+    ----------
+    lines : int
+        Lines fed to the reader.
+    accepted : int
+        Reports emitted.
+    used : int
+        Sentences that went into emitted reports.
+    skipped : collections.Counter of str
+        Skipped sentences by reason (see :data:`SKIP_REASONS`). A line without a sentence
+        counts once; the sentences of a skipped epoch all count under its reason. After
+        :meth:`NmeaReader.flush`, ``used + total_skipped`` equals the number of lines when
+        every line holds at most one ``$``.
+    flagged : collections.Counter of str
+        Emitted reports with a substituted value, by kind (``"course_missing"``).
+    """
+
+    lines: int = 0
+    accepted: int = 0
+    used: int = 0
+    skipped: Counter[str] = field(default_factory=Counter)
+    flagged: Counter[str] = field(default_factory=Counter)
+
+    @property
+    def total_skipped(self) -> int:
+        """Number of skipped sentences (and sentence-less lines), all reasons."""
+        return sum(self.skipped.values())
+
+    def as_dict(self) -> dict[str, object]:
+        """Plain-dict copy, e.g. for JSON output."""
+        return {
+            "lines": self.lines,
+            "accepted": self.accepted,
+            "used": self.used,
+            "skipped": dict(sorted(self.skipped.items())),
+            "flagged": dict(sorted(self.flagged.items())),
+        }
+
+
+class _Skip(Exception):
+    """Internal: a sentence is rejected for ``reason``."""
+
+    def __init__(self, reason: str, detail: str) -> None:
+        super().__init__(detail)
+        self.reason = reason
+        self.detail = detail
+
+
+@dataclass(slots=True)
+class _Rmc:
+    t: float
+    lat: float
+    lon: float
+    speed_mps: float | None
+    course_deg: float | None
+
+
+@dataclass(slots=True)
+class _Vtg:
+    speed_mps: float | None
+    course_deg: float | None
+
+
+@dataclass(slots=True)
+class _Epoch:
+    tod: time | None
+    rmc: _Rmc | None = None
+    gga_seen: bool = False
+    fix_quality: int | None = None
+    hdop: float | None = None
+    vtg_seen: bool = False
+    vtg: _Vtg | None = None
+    void: bool = False
+    held: int = 0  # sentences attached to the epoch, not yet counted
+
+
+class NmeaReader:
+    """Incremental reader of one vehicle's NMEA 0183 stream.
+
+    Feed lines with :meth:`feed_line` or :meth:`feed`; each returns the reports whose
+    epochs were closed by that input. Call :meth:`flush` at the end of the stream to get
+    the epoch still in progress. See the module documentation for the epoch rules.
+
+    Parameters
+    ----------
+    vehicle_id : str
+        Identifier put in every report (1 to 32 UTF-8 bytes).
+    length_m : float, optional
+        Vehicle length put in every report, metres.
+    antenna_offset_m : float, optional
+        Distance from the vehicle front back to the antenna put in every report, metres.
+    stopped_speed_mps : float, optional
+        Below this speed (m/s) a missing course is tolerated (default 0.5).
+
+    Raises
+    ------
+    InvalidReportError
+        ``vehicle_id``, ``length_m`` or ``antenna_offset_m`` is invalid (names the field).
+        Also raised, naming it, when ``stopped_speed_mps`` is negative or not finite.
+    """
+
+    def __init__(
+        self,
+        vehicle_id: str,
+        *,
+        length_m: float | None = None,
+        antenna_offset_m: float | None = None,
+        stopped_speed_mps: float = STOPPED_SPEED_MPS,
+    ) -> None:
+        # Validate the constant fields once, with the report's own rules.
+        VehicleReport(
+            vehicle_id,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            length_m=length_m,
+            antenna_offset_m=antenna_offset_m,
+        )
+        if not (math.isfinite(stopped_speed_mps) and stopped_speed_mps >= 0.0):
+            raise InvalidReportError(
+                "stopped_speed_mps", stopped_speed_mps, "must be finite and >= 0 m/s"
+            )
+        self.vehicle_id = vehicle_id
+        self.length_m = length_m
+        self.antenna_offset_m = antenna_offset_m
+        self.stopped_speed_mps = float(stopped_speed_mps)
+        self._stats = NmeaStats()
+        self._pending: _Epoch | None = None
+        self._stream_has_gga = False
+        self._last_t: float | None = None
+        self._last_tod: time | None = None
+        self._last_course: float | None = None
+
+    @property
+    def stats(self) -> NmeaStats:
+        """Live counters of this reader (:class:`NmeaStats`)."""
+        return self._stats
+
+    # ------------------------------------------------------------------ input
+    def feed_line(self, line: str | bytes) -> list[VehicleReport]:
+        """Process one line of receiver output.
+
+        Parameters
+        ----------
+        line : str or bytes
+            One line, with or without its CR/LF; bytes are decoded as ASCII (invalid bytes
+            make the sentence containing them ``"garbled"``). Leading garbage before the
+            ``$`` is ignored. Several sentences glued on one line are read one by one.
+
+        Returns
+        -------
+        list of VehicleReport
+            Reports of the epochs this line closed (usually zero or one).
+        """
+        self._stats.lines += 1
+        out: list[VehicleReport] = []
+        if isinstance(line, (bytes, bytearray, memoryview)):
+            text = bytes(line).decode("ascii", errors="replace")
+        elif isinstance(line, str):
+            text = line
+        else:
+            self._skip("garbled", f"not a str or bytes line: {type(line).__name__}")
+            return out
+        text = text.strip(_STRIP)
+        if not text:
+            self._skip("empty", "blank line")
+            return out
+        start = text.find("$")
+        if start < 0:
+            self._skip("not_nmea", repr(text[:80]))
+            return out
+        if start > 0:
+            logger.debug("%s: ignored leading garbage %r", self.vehicle_id, text[:start][:80])
+        for piece in text[start:].split("$")[1:]:
+            self._feed_sentence("$" + piece.strip(_STRIP), out)
+        return out
+
+    def feed(self, lines: Iterable[str | bytes]) -> Iterator[VehicleReport]:
+        """Process many lines, yielding reports as their epochs close.
+
+        The epoch in progress at the end is *not* emitted: call :meth:`flush` when the
+        stream has ended.
+
+        Parameters
+        ----------
+        lines : iterable of str or bytes
+            Lines of receiver output (see :meth:`feed_line`).
+
+        Yields
+        ------
+        VehicleReport
+            Reports in stream order.
+        """
+        for line in lines:
+            yield from self.feed_line(line)
+
+    def flush(self) -> list[VehicleReport]:
+        """Close the epoch in progress (end of stream).
+
+        Returns
+        -------
+        list of VehicleReport
+            Its report, if it yields one (zero or one element).
+        """
+        out: list[VehicleReport] = []
+        self._close(out)
+        return out
+
+    # --------------------------------------------------------------- sentences
+    def _feed_sentence(self, sentence: str, out: list[VehicleReport]) -> None:
+        try:
+            msg_type, msg = self._parse(sentence)
+            if msg_type == "RMC":
+                self._on_rmc(msg, out)
+            elif msg_type == "GGA":
+                self._on_gga(msg, out)
+            else:
+                self._on_vtg(msg, out)
+        except _Skip as skip:
+            self._skip(skip.reason, f"{skip.detail}: {sentence[:100]!r}")
+
+    def _parse(self, sentence: str) -> tuple[str, NMEAMessage]:
+        match = _SENTENCE.fullmatch(sentence)
+        if match is None:
+            raise _Skip("garbled", "not a complete '$...*hh' sentence")
+        content = match["content"]
+        if not (content.isascii() and content.isprintable()):
+            raise _Skip("garbled", "non-ASCII or control characters")
+        if calc_checksum(content) != match["checksum"].upper():
+            raise _Skip("checksum", f"checksum should be {calc_checksum(content)}")
+        header = _HEADER.fullmatch(content.split(",", 1)[0])
+        if header is None or header["type"] not in _MIN_FIELDS:
+            raise _Skip("unsupported", "sentence type not used")
+        if header["talker"] not in GNSS_TALKERS:
+            raise _Skip("unsupported", f"talker {header['talker']} is not a GNSS receiver")
+        if _NOT_IN_FIELDS.search(content):
+            raise _Skip("garbled", "whitespace or '_' in a field")
+        try:
+            msg = NMEAReader.parse(sentence.encode("ascii"), validate=VALCKSUM)
+        except NMEAParseError as err:  # pynmeagps's own checksum verdict
+            raise _Skip("checksum", str(err)) from err
+        except (NMEATypeError, NMEAMessageError, ValueError, IndexError, KeyError) as err:
+            raise _Skip("garbled", f"unparsable field ({err})") from err
+        if msg is None:
+            raise _Skip("garbled", "badly formed")
+        if len(msg.payload) < _MIN_FIELDS[header["type"]]:
+            raise _Skip("garbled", f"only {len(msg.payload)} fields")
+        return header["type"], msg
+
+    def _on_rmc(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
+        status = getattr(msg, "status", "")
+        mode = getattr(msg, "posMode", "")
+        tod = _time_of_day(msg)
+        if status not in ("A", "V"):
+            raise _Skip("garbled", f"RMC status {status!r}")
+        if status == "V" or mode == "N":
+            self._void(tod, out, f"RMC status {status}, mode {mode or '-'}")
+            return
+        day = _rmc_date(msg)
+        if tod is None or day is None:
+            raise _Skip("no_time", "RMC without valid date and time")
+        if not _MIN_YEAR <= day.year <= _MAX_YEAR:  # pragma: no cover - strptime %y range
+            raise _Skip("no_time", f"RMC year {day.year}")
+        t = (datetime.combine(day, tod, tzinfo=UTC) - _EPOCH0).total_seconds()
+        lat = _coordinate(msg, 2, "lat", "NS", 90.0)
+        lon = _coordinate(msg, 4, "lon", "EW", 180.0)
+        speed = _speed(getattr(msg, "spd", None), "kn", "RMC speed")
+        course = _course(getattr(msg, "cog", None), "RMC course")
+        if self._last_t is not None and t <= self._last_t:
+            if t == self._last_t:
+                raise _Skip("duplicate", f"time {t} already reported")
+            raise _Skip("time_backwards", f"time {t} before {self._last_t}")
+        epoch = self._epoch_for(tod, out)
+        if epoch.void:
+            self._skip("void_fix", "RMC of a void epoch")
+            return
+        if epoch.rmc is not None:
+            raise _Skip("duplicate", "second RMC of the epoch")
+        epoch.rmc = _Rmc(t, lat, lon, speed, course)
+        epoch.held += 1
+        self._close_if_complete(out)
+
+    def _on_gga(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
+        self._stream_has_gga = True
+        tod = _time_of_day(msg)
+        quality = getattr(msg, "quality", "")
+        if not isinstance(quality, int):
+            raise _Skip("garbled", "GGA without fix quality")
+        if quality == 0:
+            self._void(tod, out, "GGA quality 0")
+            return
+        if tod is None:
+            raise _Skip("no_time", "GGA without valid time")
+        if not 0 < quality <= 9:
+            raise _Skip("invalid_value", f"GGA quality {quality}")
+        hdop = getattr(msg, "HDOP", "")
+        if hdop == "":
+            hdop = None
+        elif not (isinstance(hdop, float) and math.isfinite(hdop) and hdop >= 0.0):
+            raise _Skip("invalid_value", f"HDOP {hdop!r}")
+        if self._pending is None and tod == self._last_tod:
+            raise _Skip("unpaired", "GGA after its epoch was closed")
+        epoch = self._epoch_for(tod, out)
+        if epoch.void:
+            self._skip("void_fix", "GGA of a void epoch")
+            return
+        if epoch.gga_seen:
+            raise _Skip("duplicate", "second GGA of the epoch")
+        epoch.gga_seen = True
+        epoch.fix_quality = quality
+        epoch.hdop = hdop
+        epoch.held += 1
+        self._close_if_complete(out)
+
+    def _on_vtg(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
+        for name, unit in (("cogtUnit", "T"), ("sognUnit", "N"), ("sogkUnit", "K")):
+            if getattr(msg, name, "") not in ("", unit):
+                raise _Skip("garbled", f"VTG {name} {getattr(msg, name)!r}")
+        data: _Vtg | None = None  # None: void VTG (mode N)
+        if getattr(msg, "posMode", "") != "N":
+            course = _course(getattr(msg, "cogt", None), "VTG course")
+            speed = _speed(getattr(msg, "sogn", None), "kn", "VTG speed")
+            if speed is None:
+                speed = _speed(getattr(msg, "sogk", None), "km/h", "VTG speed")
+            data = _Vtg(speed, course)
+        epoch = self._pending
+        if epoch is None:
+            raise _Skip("unpaired", "VTG with no epoch in progress")
+        if epoch.void:
+            self._skip("void_fix", "VTG of a void epoch")
+            return
+        if epoch.vtg_seen:
+            raise _Skip("duplicate", "second VTG of the epoch")
+        epoch.vtg_seen = True
+        if data is None:
+            self._skip("void_fix", "VTG mode N")
+        else:
+            epoch.vtg = data
+            epoch.held += 1
+        self._close_if_complete(out)
+
+    # ------------------------------------------------------------------ epochs
+    def _epoch_for(self, tod: time, out: list[VehicleReport]) -> _Epoch:
+        """The epoch of time of day ``tod``, closing the pending one if it differs."""
+        if self._pending is not None and self._pending.tod != tod:
+            self._close(out)
+        if self._pending is None:
+            self._pending = _Epoch(tod)
+        return self._pending
+
+    def _void(self, tod: time | None, out: list[VehicleReport], detail: str) -> None:
+        self._skip("void_fix", detail)
+        if tod is None:
+            return
+        epoch = self._epoch_for(tod, out)
+        epoch.void = True
+
+    def _close_if_complete(self, out: list[VehicleReport]) -> None:
+        epoch = self._pending
+        if epoch is None or epoch.rmc is None:
+            return
+        motion_known = epoch.vtg_seen or (
+            epoch.rmc.speed_mps is not None and epoch.rmc.course_deg is not None
+        )
+        if motion_known and (epoch.gga_seen or not self._stream_has_gga):
+            self._close(out)
+
+    def _close(self, out: list[VehicleReport]) -> None:
+        epoch, self._pending = self._pending, None
+        if epoch is None:
+            return
+        if epoch.rmc is not None or epoch.void:
+            self._last_tod = epoch.tod
+        try:
+            report = self._report(epoch)
+        except _Skip as skip:
+            if epoch.held:
+                self._skip(skip.reason, skip.detail, epoch.held)
+            return
+        self._stats.used += epoch.held
+        self._stats.accepted += 1
+        self._last_t = report.t
+        out.append(report)
+
+    def _report(self, epoch: _Epoch) -> VehicleReport:
+        if epoch.void:
+            raise _Skip("void_fix", f"epoch {epoch.tod} is void")
+        rmc = epoch.rmc
+        if rmc is None:
+            raise _Skip("unpaired", f"epoch {epoch.tod} has no usable RMC")
+        vtg = epoch.vtg or _Vtg(None, None)
+        speed = rmc.speed_mps if rmc.speed_mps is not None else vtg.speed_mps
+        course = rmc.course_deg if rmc.course_deg is not None else vtg.course_deg
+        if speed is None:
+            raise _Skip("no_speed", f"epoch {epoch.tod} has no speed")
+        if self._last_t is not None and rmc.t <= self._last_t:
+            if rmc.t == self._last_t:
+                raise _Skip("duplicate", f"time {rmc.t} already reported")
+            raise _Skip("time_backwards", f"time {rmc.t} before {self._last_t}")
+        course_missing = course is None
+        if course is None:
+            if speed >= self.stopped_speed_mps:
+                raise _Skip("no_course", f"epoch {epoch.tod}: no course at {speed:.2f} m/s")
+            course = self._last_course if self._last_course is not None else 0.0
+        try:
+            report = VehicleReport(
+                self.vehicle_id,
+                rmc.t,
+                rmc.lat,
+                rmc.lon,
+                speed,
+                course,
+                length_m=self.length_m,
+                antenna_offset_m=self.antenna_offset_m,
+                hdop=epoch.hdop,
+                fix_quality=epoch.fix_quality,
+            )
+        except InvalidReportError as err:
+            raise _Skip("invalid_value", str(err)) from err
+        if course_missing:
+            self._stats.flagged["course_missing"] += 1
+            logger.debug("%s: course missing at t=%s, using %s", self.vehicle_id, rmc.t, course)
+        else:
+            self._last_course = report.course_deg
+        return report
+
+    def _skip(self, reason: str, detail: str, count: int = 1) -> None:
+        self._stats.skipped[reason] += count
+        logger.debug("%s: skipped %d (%s): %s", self.vehicle_id, count, reason, detail)
+
+
+def _raw(msg: NMEAMessage, index: int) -> str:
+    payload = msg.payload
+    return str(payload[index]) if index < len(payload) else ""
+
+
+def _time_of_day(msg: NMEAMessage) -> time | None:
+    """UTC time of day of an RMC or GGA (first field ``hhmmss[.ss]``), ``None`` if invalid."""
+    value = getattr(msg, "time", None)
+    if not (isinstance(value, time) and _HHMMSS.fullmatch(_raw(msg, 0))):
+        return None
+    return value
+
+
+def _rmc_date(msg: NMEAMessage) -> date | None:
+    """Date of an RMC (ninth field ``ddmmyy``), ``None`` if invalid."""
+    value = getattr(msg, "date", None)
+    if not (isinstance(value, date) and _DDMMYY.fullmatch(_raw(msg, 8))):
+        return None
+    return value
+
+
+def _coordinate(msg: NMEAMessage, index: int, name: str, hemi_name: str, limit: float) -> float:
+    """Signed degrees from the raw ``(d)ddmm.mmmm`` field at payload ``index``."""
+    raw = _raw(msg, index)
+    hemi = getattr(msg, hemi_name, "")
+    value = getattr(msg, name, "")
+    match = _DDMM.fullmatch(raw)
+    if match is None or not isinstance(value, float):
+        raise _Skip("garbled", f"{name} {raw!r}")
+    negative, positive = ("S", "N") if name == "lat" else ("W", "E")
+    if hemi not in (negative, positive):
+        raise _Skip("garbled", f"{hemi_name} {hemi!r}")
+    # 60.0 is tolerated: some writers (pynmeagps's own ddd2dmm) round 59.999995 up to it.
+    if float(match["min"]) > 60.0 or abs(value) > limit:
+        raise _Skip("invalid_value", f"{name} {raw!r}")
+    return -abs(value) if hemi == negative else abs(value)
+
+
+def _speed(value: object, unit: Literal["kn", "km/h"], what: str) -> float | None:
+    """Speed in m/s from a decoded field in knots or km/h (``None`` when empty).
+
+    Knots are multiplied by 1852/3600, km/h divided by 3.6.
+    """
+    if value is None or value == "":
+        return None
+    if not (isinstance(value, float) and math.isfinite(value) and value >= 0.0):
+        raise _Skip("invalid_value", f"{what} {value!r} {unit}")
+    speed = value * KNOT_MPS if unit == "kn" else value / KMH_PER_MPS
+    if speed > MAX_SPEED_MPS:
+        raise _Skip("invalid_value", f"{what} {value!r} {unit} above {MAX_SPEED_MPS:g} m/s")
+    return speed
+
+
+def _course(value: object, what: str) -> float | None:
+    """Course in degrees from a decoded field (``None`` when empty)."""
+    if value is None or value == "":
+        return None
+    if not (isinstance(value, float) and 0.0 <= value <= 360.0):
+        raise _Skip("invalid_value", f"{what} {value!r}")
+    return 0.0 if value == 360.0 else value
+
+
+# --------------------------------------------------------------------------- files
+def read_nmea_file(
+    path: str | os.PathLike[str],
+    vehicle_id: str | None = None,
+    *,
+    length_m: float | None = None,
+    antenna_offset_m: float | None = None,
+) -> tuple[list[VehicleReport], NmeaStats]:
+    """Read one vehicle's NMEA log.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The log file: one sentence per line (LF, CRLF or CR line ends).
+    vehicle_id : str, optional
+        Identifier of the vehicle; defaults to the file name without its suffix.
+    length_m, antenna_offset_m : float, optional
+        Put in every report, metres (see :class:`NmeaReader`).
+
+    Returns
+    -------
+    reports : list of VehicleReport
+        The reports in file order (the reader is flushed at the end of the file).
+    stats : NmeaStats
+        Counters of accepted and skipped sentences.
+
+    Raises
+    ------
+    InputFileError
+        The file is missing or unreadable (also an ``OSError``); the message names it.
+    InvalidReportError
+        The vehicle identifier (e.g. a too long file name) or an option is invalid.
+    """
+    file = Path(path)
+    try:
+        stream = file.open("rb")
+    except OSError as err:
+        raise InputFileError(f"cannot read NMEA file {str(file)!r}: {err}") from err
+    reports: list[VehicleReport] = []
+    with stream:
+        reader = NmeaReader(
+            file.stem if vehicle_id is None else vehicle_id,
+            length_m=length_m,
+            antenna_offset_m=antenna_offset_m,
+        )
+        try:
+            for chunk in stream:
+                # Lines end in LF or CRLF; a CR-only file arrives as one chunk.
+                for line in chunk.rstrip(b"\r\n").split(b"\r"):
+                    reports.extend(reader.feed_line(line))
+        except OSError as err:
+            raise InputFileError(f"cannot read NMEA file {str(file)!r}: {err}") from err
+    reports.extend(reader.flush())
+    return reports, reader.stats
+
+
+def read_nmea_directory(
+    path: str | os.PathLike[str],
+) -> tuple[dict[str, list[VehicleReport]], dict[str, NmeaStats]]:
+    """Read a directory of NMEA logs, one file per vehicle.
+
+    Files whose names end in ``.nmea``, ``.txt`` or ``.log`` (any case) are read, not
+    recursively; each file's name without its suffix is the vehicle identifier.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The directory.
+
+    Returns
+    -------
+    reports : dict of str to list of VehicleReport
+        Reports per vehicle identifier, in sorted identifier order.
+    stats : dict of str to NmeaStats
+        Counters per vehicle identifier.
+
+    Raises
+    ------
+    InputFileError
+        ``path`` is not a readable directory, holds no NMEA file, holds two files of the
+        same vehicle (e.g. ``t1.nmea`` and ``t1.log``) or a file cannot be read.
+    InvalidReportError
+        A file name is not a valid vehicle identifier.
+    """
+    directory = Path(path)
+    if not directory.is_dir():
+        raise InputFileError(f"not a directory of NMEA files: {str(directory)!r}")
+    try:
+        files = sorted(
+            p for p in directory.iterdir() if p.suffix.lower() in FILE_SUFFIXES and p.is_file()
+        )
+    except OSError as err:
+        raise InputFileError(f"cannot list directory {str(directory)!r}: {err}") from err
+    if not files:
+        raise InputFileError(
+            f"no NMEA files ({', '.join('*' + s for s in FILE_SUFFIXES)}) in {str(directory)!r}"
+        )
+    by_vehicle: dict[str, Path] = {}
+    for file in files:
+        if file.stem in by_vehicle:
+            raise InputFileError(
+                f"two files for vehicle {file.stem!r}: {by_vehicle[file.stem].name!r} and "
+                f"{file.name!r} in {str(directory)!r}"
+            )
+        by_vehicle[file.stem] = file
+    reports: dict[str, list[VehicleReport]] = {}
+    stats: dict[str, NmeaStats] = {}
+    for vehicle_id in sorted(by_vehicle):
+        reports[vehicle_id], stats[vehicle_id] = read_nmea_file(by_vehicle[vehicle_id])
+    return reports, stats
+
+
+# -------------------------------------------------------------------------- writer
+def format_rmc(
+    report: VehicleReport,
+    *,
+    talker: str = "GN",
+    include_speed: bool = True,
+    include_course: bool = True,
+    void: bool = False,
+) -> str:
+    """Write an RMC sentence (NMEA 4.10 layout) for a report.
+
+    Parameters
+    ----------
+    report : VehicleReport
+        Time ``t`` (seconds since the Unix epoch, UTC, years 1969–2068), position, speed
+        (m/s, printed in knots to 0.001 kn) and course (degrees, printed to 0.01).
+    talker : str, optional
+        Talker identifier, one of :data:`GNSS_TALKERS` (default ``"GN"``).
+    include_speed, include_course : bool, optional
+        Leave the speed or course field empty when false (as receivers do when stopped).
+    void : bool, optional
+        Write status ``V`` and mode ``N`` (no fix).
+
+    Returns
+    -------
+    str
+        The sentence ``$..RMC,...*hh`` without line terminator.
+
+    Raises
+    ------
+    ProtocolError
+        Unknown talker, or ``t`` outside the years a two-digit NMEA year can express.
+    """
+    hhmmss, ddmmyy = _utc_fields(report.t)
+    lat, ns, lon, ew = _position_fields(report.lat, report.lon)
+    speed = f"{report.speed_mps / KNOT_MPS:.3f}" if include_speed else ""
+    course = f"{report.course_deg:.2f}" if include_course else ""
+    status, mode = ("V", "N") if void else ("A", _POS_MODES.get(report.fix_quality or 1, "A"))
+    payload = [hhmmss, status, lat, ns, lon, ew, speed, course, ddmmyy, "", "", mode, "V"]
+    return _build(talker, "RMC", payload)
+
+
+def format_gga(
+    report: VehicleReport,
+    *,
+    talker: str = "GN",
+    fix_quality: int | None = None,
+    hdop: float | None = None,
+    num_satellites: int = 12,
+    altitude_m: float = 0.0,
+) -> str:
+    """Write a GGA sentence for a report.
+
+    Parameters
+    ----------
+    report : VehicleReport
+        Time ``t`` (seconds since the Unix epoch, UTC) and position.
+    talker : str, optional
+        Talker identifier, one of :data:`GNSS_TALKERS` (default ``"GN"``).
+    fix_quality : int, optional
+        Fix quality 0–9; default the report's ``fix_quality``, else 1 (GPS fix).
+    hdop : float, optional
+        Horizontal dilution of precision, printed to 0.01; default the report's ``hdop``,
+        else 1.0.
+    num_satellites : int, optional
+        Satellites used, 0–99 (default 12).
+    altitude_m : float, optional
+        Antenna altitude above mean sea level, metres, printed to 0.1 (default 0).
+
+    Returns
+    -------
+    str
+        The sentence ``$..GGA,...*hh`` without line terminator.
+
+    Raises
+    ------
+    ProtocolError
+        Unknown talker, a value out of range, or ``t`` outside 1969–2068.
+    """
+    quality = fix_quality if fix_quality is not None else (report.fix_quality or 1)
+    dop = hdop if hdop is not None else (report.hdop if report.hdop is not None else 1.0)
+    if isinstance(quality, bool) or not isinstance(quality, int) or not 0 <= quality <= 9:
+        raise ProtocolError(f"GGA fix quality must be an int 0..9, got {quality!r}")
+    if not (math.isfinite(dop) and 0.0 <= dop < 1000.0):
+        raise ProtocolError(f"GGA hdop must be in [0, 1000), got {dop!r}")
+    if (
+        isinstance(num_satellites, bool)
+        or not isinstance(num_satellites, int)
+        or not 0 <= num_satellites <= 99
+    ):
+        raise ProtocolError(f"GGA satellite count must be 0..99, got {num_satellites!r}")
+    if not math.isfinite(altitude_m):
+        raise ProtocolError(f"GGA altitude must be finite, got {altitude_m!r}")
+    hhmmss, _ = _utc_fields(report.t)
+    lat, ns, lon, ew = _position_fields(report.lat, report.lon)
+    payload = [
+        hhmmss,
+        lat,
+        ns,
+        lon,
+        ew,
+        str(quality),
+        f"{num_satellites:02d}",
+        f"{dop:.2f}",
+        f"{altitude_m:.1f}",
+        "M",
+        "0.0",
+        "M",
+        "",
+        "",
+    ]
+    return _build(talker, "GGA", payload)
+
+
+def format_vtg(
+    report: VehicleReport,
+    *,
+    talker: str = "GN",
+    include_course: bool = True,
+    units: Literal["both", "knots", "kmh"] = "both",
+) -> str:
+    """Write a VTG sentence (course and speed) for a report.
+
+    Parameters
+    ----------
+    report : VehicleReport
+        Speed (m/s, printed to 0.001 kn and 0.001 km/h) and course (degrees, to 0.01).
+    talker : str, optional
+        Talker identifier, one of :data:`GNSS_TALKERS` (default ``"GN"``).
+    include_course : bool, optional
+        Leave the course field empty when false.
+    units : {"both", "knots", "kmh"}, optional
+        Which speed fields to fill (default both).
+
+    Returns
+    -------
+    str
+        The sentence ``$..VTG,...*hh`` without line terminator.
+
+    Raises
+    ------
+    ProtocolError
+        Unknown talker or units.
+    """
+    if units not in ("both", "knots", "kmh"):
+        raise ProtocolError(f"VTG units must be 'both', 'knots' or 'kmh', got {units!r}")
+    course = f"{report.course_deg:.2f}" if include_course else ""
+    knots = f"{report.speed_mps / KNOT_MPS:.3f}" if units != "kmh" else ""
+    kmh = f"{report.speed_mps * KMH_PER_MPS:.3f}" if units != "knots" else ""
+    mode = _POS_MODES.get(report.fix_quality or 1, "A")
+    payload = [course, "T", "", "M", knots, "N", kmh, "K", mode]
+    return _build(talker, "VTG", payload)
+
+
+def _utc_fields(t: float) -> tuple[str, str]:
+    """``hhmmss.ss`` and ``ddmmyy`` of Unix time ``t`` rounded to 0.01 s."""
+    if not math.isfinite(t):
+        raise ProtocolError(f"cannot write time t={t!r}")
+    centis = round(t * 100.0)
+    try:
+        stamp = _EPOCH0 + timedelta(seconds=centis // 100, milliseconds=10 * (centis % 100))
+    except OverflowError as err:
+        raise ProtocolError(f"cannot write time t={t!r}: {err}") from err
+    if not _MIN_YEAR <= stamp.year <= _MAX_YEAR:
+        raise ProtocolError(
+            f"t={t!r} is in {stamp.year}; NMEA two-digit years cover {_MIN_YEAR}-{_MAX_YEAR}"
+        )
+    return (
+        f"{stamp:%H%M%S}.{stamp.microsecond // 10_000:02d}",
+        f"{stamp:%d%m%y}",
+    )
+
+
+def _position_fields(lat: float, lon: float) -> tuple[str, str, str, str]:
+    return (
+        _ddmm(lat, 2),
+        "S" if lat < 0 else "N",
+        _ddmm(lon, 3),
+        "W" if lon < 0 else "E",
+    )
+
+
+def _ddmm(degrees: float, width: int) -> str:
+    """``(d)ddmm.mmmmm`` of ``|degrees|``, rounded to 0.00001 arc minute."""
+    units = round(abs(degrees) * 60.0 * 100_000)  # 1e-5 arc minutes, exact integer
+    whole, rest = divmod(units, 60 * 100_000)
+    minutes, fraction = divmod(rest, 100_000)
+    return f"{whole:0{width}d}{minutes:02d}.{fraction:05d}"
+
+
+def _build(talker: str, msg_type: str, payload: list[str]) -> str:
+    if talker not in GNSS_TALKERS:
+        raise ProtocolError(f"talker must be one of {sorted(GNSS_TALKERS)}, got {talker!r}")
+    # pynmeagps checks each field against the sentence definition and adds the checksum.
+    message = NMEAMessage(talker, msg_type, GET, payload=payload)
+    return str(message.serialize().decode("ascii")).rstrip("\r\n")
