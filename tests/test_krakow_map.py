@@ -86,4 +86,6 @@ def test_check_runs_and_reports_real_data_issues(net):
         "components",
         "unnoded_crossing",
         "sharp_link",
+        "duplicate_track",
+        "overlapping_tracks",
     }

@@ -279,6 +279,31 @@ def test_merged_chains_keep_way_ids(tmp_path):
     assert net.edges[0].length_m == pytest.approx(300.0, abs=0.01)
 
 
+def test_duplicate_ways_are_kept_once_and_reported(tmp_path):
+    b = OsmBuilder()
+    n1, n2 = b.node(0, 100), b.node(0, 101)
+    b.line([(0, 0), n1])
+    b.line([n1, n2])
+    b.line([n2, n1])  # the same two nodes again, drawn the other way
+    b.line([n2, (0, 300)])
+    net = build(b, tmp_path)
+    assert not [c for c in net.conflicts if c.kind == "crossing"]
+    assert len(net.edges) == 1 and set(net.edges[0].way_ids) == {1, 2, 3, 4}
+    assert check(net).counts()["duplicate_track"] == 1
+
+
+def test_untagged_piece_between_one_way_links_takes_their_direction(tmp_path):
+    b = OsmBuilder()
+    n1, n2 = b.node(0, 100), b.node(0, 200)
+    b.line([(0, 0), n1], oneway="yes")
+    b.line([n1, n2], maxspeed="30")  # untagged, differs in maxspeed so stays separate
+    b.line([n2, (0, 300)], oneway="yes")
+    net = build(b, tmp_path)
+    middle = next(e for e in net.edges if e.way_ids == (2,))
+    assert (middle.direction, middle.direction_source) == (1, "propagated")
+    assert middle.maxspeed_mps == pytest.approx(30 / 3.6)
+
+
 def test_bridge_splits_chain_but_not_topology(tmp_path):
     b = OsmBuilder()
     n1, n2 = b.node(0, 100), b.node(0, 150)

@@ -2,7 +2,7 @@
 
 >>> import trackmap
 >>> net = trackmap.load_default()            # Kraków's tram network, © OSM contributors
->>> cands = net.candidates(19.9385, 50.0614, radius_m=25.0)
+>>> cands = net.candidates(19.93260, 50.06306, radius_m=25.0)   # Teatr Bagatela 01
 >>> paths = net.paths_ahead(cands[0].edge_id, cands[0].offset_m, 1, 300.0)
 """
 

@@ -24,8 +24,10 @@ from trackmap.topology import (
     end_tangent,
     find_crossings,
     fouling_distance,
+    drop_duplicate_pieces,
     merge_chains,
     parallel_neighbours,
+    propagate_directions,
     split_ways,
 )
 
@@ -133,7 +135,12 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
     xs, ys = frame.to_local(lons, lats)
     local = {nid: (float(x), float(y)) for nid, x, y in zip(coords, xs, ys, strict=True)}
 
-    pieces = merge_chains(split_ways([(w.way_id, w.node_ids, w.tags) for w in data.ways]))
+    pieces, duplicates = drop_duplicate_pieces(
+        split_ways([(w.way_id, w.node_ids, w.tags) for w in data.ways])
+    )
+    for group in duplicates:
+        logger.warning("%s: ways %s run over the same nodes; kept once", data.path, list(group))
+    pieces = merge_chains(pieces)
     pieces.sort(key=lambda p: (min(p.way_ids), p.node_ids[0], p.node_ids[-1], len(p.node_ids)))
     lines = [shapely.LineString([local[n] for n in p.node_ids]) for p in pieces]
 
@@ -163,7 +170,7 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
     ]
 
     nodes = _junction_nodes(edges, coords, local, max_deflection, probe, data.node_tags)
-    conflicts, grade_sep = _conflicts(edges, nodes, pieces, clearance)
+    conflicts, grade_sep, overlaps = _conflicts(edges, nodes, pieces, clearance)
     stops = _snap_stops(data.stops, frame, lines, float(params["stop_snap_m"]))  # type: ignore[arg-type]
     meta = MapMetadata(
         source={
@@ -171,6 +178,8 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
             "format": data.fmt,
             "ways": len(data.ways),
             "dropped": dict(data.dropped),
+            "duplicate_ways": [list(g) for g in duplicates],
+            "overlapping_edges": overlaps,
         },
         build=dict(params),
         driving_side=driving_side,
@@ -211,6 +220,7 @@ def _running_directions(
             if d != 0:
                 directions[i] = d
                 sources[i] = "driving_side"
+    propagate_directions(pieces, directions, sources)
     return directions, sources
 
 
@@ -267,7 +277,7 @@ def _junction_nodes(
 
 def _conflicts(
     edges: list[Edge], nodes: list[Node], pieces: list[Piece], clearance: float
-) -> tuple[list[ConflictPoint], list[tuple[int, int, float, float]]]:
+) -> tuple[list[ConflictPoint], list[tuple[int, int, float, float]], list[list[float]]]:
     conflicts: list[ConflictPoint] = []
     for node in nodes:
         if node.cls in ("diamond_crossing", "double_slip"):
@@ -318,7 +328,11 @@ def _conflicts(
     lines = [e.geometry for e in edges]
     node_xy = [(np.asarray(e.geometry.coords[0]), np.asarray(e.geometry.coords[-1])) for e in edges]
     grade_sep: list[tuple[int, int, float, float]] = []
+    overlaps: list[list[float]] = []
     for hit in find_crossings(lines, [p.attrs for p in pieces], node_xy):
+        if hit.overlap:
+            overlaps.append([hit.edge_a, hit.edge_b, round(hit.x, 3), round(hit.y, 3)])
+            continue
         if hit.grade_separated:
             grade_sep.append((hit.edge_a, hit.edge_b, hit.x, hit.y))
             continue
@@ -336,7 +350,7 @@ def _conflicts(
                 angle_deg=hit.angle_deg,
             )
         )
-    return conflicts, grade_sep
+    return conflicts, grade_sep, overlaps
 
 
 def _snap_stops(

@@ -14,7 +14,9 @@ Warnings:
 * ``components`` — the network falls apart into more than one connected piece;
 * ``unnoded_crossing`` — two tracks cross at the same level without a shared node (they are
   still conflict points; OSM should usually have a crossing node there);
-* ``sharp_link`` — a plain link whose kink exceeds the switch deflection threshold.
+* ``sharp_link`` — a plain link whose kink exceeds the switch deflection threshold;
+* ``duplicate_track`` — OSM ways over exactly the same nodes (kept once);
+* ``overlapping_tracks`` — two edges that run on top of each other without shared nodes.
 """
 
 from __future__ import annotations
@@ -182,6 +184,21 @@ def check(
         ]
         report.warnings.append(
             Finding("components", f"{len(comps)} separate networks: " + "; ".join(sizes))
+        )
+    for group in net.metadata.source.get("duplicate_ways", []):
+        report.warnings.append(
+            Finding("duplicate_track", f"ways {list(group)} run over the same nodes (kept once)")
+        )
+    for a, b, x, y in net.metadata.source.get("overlapping_edges", []):
+        lon, lat = at(x, y)
+        report.warnings.append(
+            Finding(
+                "overlapping_tracks",
+                f"edges {int(a)} and {int(b)} overlap along a stretch without sharing nodes",
+                lon,
+                lat,
+                (int(a), int(b)),
+            )
         )
     for c in net.conflicts:
         if c.kind == "crossing":

@@ -414,7 +414,11 @@ class TrackMap:
         self._convergence = self.frame.grid_north_azimuth_deg(
             shapely.get_x(mid), shapely.get_y(mid)
         )
-        self.traversal = self._build_traversal()
+        #: Permitted moves: (edge, direction) states, respecting running directions.
+        self.traversal = self._build_traversal(respect_direction=True)
+        #: Physical moves: as ``traversal`` but ignoring running directions (for
+        #: vehicles running against the permitted direction).
+        self.traversal_any = self._build_traversal(respect_direction=False)
         self._edge_crossings: dict[int, list[tuple[float, int]]] = defaultdict(list)
         self._node_conflicts: dict[int, list[int]] = defaultdict(list)
         for c in self.conflicts:
@@ -428,11 +432,11 @@ class TrackMap:
         self._choices = self._facing_choices()
 
     # -- construction helpers ------------------------------------------------------------
-    def _build_traversal(self) -> nx.DiGraph:
+    def _build_traversal(self, *, respect_direction: bool) -> nx.DiGraph:
         g = nx.DiGraph()
         for e in self.edges:
             for d in (1, -1):
-                if e.allows(d):
+                if e.allows(d) or not respect_direction:
                     g.add_node((e.edge_id, d), length=self._lengths[e.edge_id])
         for node in self.nodes.values():
             for i, j in node.allowed:
@@ -448,8 +452,8 @@ class TrackMap:
     def _facing_choices(self) -> dict[tuple[tuple[int, int], tuple[int, int]], str]:
         """Label the options at facing switches: 'straight', 'left' or 'right'."""
         labels: dict[tuple[tuple[int, int], tuple[int, int]], str] = {}
-        for u in self.traversal.nodes:
-            succ = list(self.traversal.successors(u))
+        for u in self.traversal_any.nodes:
+            succ = list(self.traversal_any.successors(u))
             if len(succ) < 2:
                 continue
             edge_u, d_u = u
@@ -685,12 +689,15 @@ class TrackMap:
         return h % 360.0
 
     # -- routing -------------------------------------------------------------------------
-    def successors(self, edge_id: int, direction: int) -> list[tuple[int, int]]:
+    def successors(
+        self, edge_id: int, direction: int, *, respect_direction: bool = True
+    ) -> list[tuple[int, int]]:
         """The (edge, direction) states reachable from the end of an edge."""
+        graph = self.traversal if respect_direction else self.traversal_any
         state = (edge_id, direction)
-        if state not in self.traversal:
+        if state not in graph:
             return []
-        return list(self.traversal.successors(state))
+        return list(graph.successors(state))
 
     def paths_ahead(
         self,
@@ -700,6 +707,7 @@ class TrackMap:
         horizon_m: float,
         *,
         max_paths: int = 64,
+        respect_direction: bool = True,
     ) -> list[Path]:
         """Every route ahead of a track position up to a horizon, one per branch.
 
@@ -714,6 +722,9 @@ class TrackMap:
             Look-ahead distance, metres.
         max_paths : int
             Safety bound on branching; paths beyond it end with ``end='truncated'``.
+        respect_direction : bool
+            Follow only permitted running directions (default). ``False`` follows every
+            physical move, e.g. for a vehicle running against the permitted direction.
 
         Returns
         -------
@@ -732,6 +743,7 @@ class TrackMap:
             raise ValueError(f"direction must be +1 or -1, got {direction!r}")
         if not horizon_m >= 0:
             raise ValueError(f"horizon_m must be >= 0, got {horizon_m}")
+        graph = self.traversal if respect_direction else self.traversal_any
         length = self._lengths[edge.edge_id]
         offset = min(max(float(offset_m), 0.0), length)
         results: list[Path] = []
@@ -765,7 +777,7 @@ class TrackMap:
             steps = [*steps, PathStep(e, d, enter, exit_off, start, end_m)]
             conflicts = conflicts + self._crossings_on(e, enter, exit_off, start)
             node_id = self.edges[e].end_node if d == 1 else self.edges[e].start_node
-            succ = list(self.traversal.successors(state)) if state in self.traversal else []
+            succ = list(graph.successors(state)) if state in graph else []
             if not succ or len(results) + len(stack) >= max_paths:
                 node = self.nodes.get(node_id)
                 end = (
@@ -855,6 +867,7 @@ class TrackMap:
         to_offset_m: float,
         *,
         cutoff_m: float = 2000.0,
+        respect_direction: bool = True,
     ) -> RouteDistance | None:
         """Shortest distance along permitted moves from one track position to another.
 
@@ -866,6 +879,8 @@ class TrackMap:
             Target position (either running direction).
         cutoff_m : float
             Give up beyond this distance, metres.
+        respect_direction : bool
+            Follow only permitted running directions (default), or every physical move.
 
         Returns
         -------
@@ -876,13 +891,14 @@ class TrackMap:
         self.edge(to_edge)
         if from_direction not in (1, -1):
             raise ValueError(f"direction must be +1 or -1, got {from_direction!r}")
-        if not self.edges[from_edge].allows(from_direction):
+        graph = self.traversal if respect_direction else self.traversal_any
+        if respect_direction and not self.edges[from_edge].allows(from_direction):
             return None
         if from_edge == to_edge and (to_offset_m - from_offset_m) * from_direction >= 0:
             d = abs(to_offset_m - from_offset_m)
             return RouteDistance(d, from_direction, (from_edge,)) if d <= cutoff_m else None
         start = (from_edge, from_direction)
-        if start not in self.traversal:
+        if start not in graph:
             return None
         remaining = (
             (self._lengths[from_edge] - from_offset_m) if from_direction == 1 else from_offset_m
@@ -890,7 +906,7 @@ class TrackMap:
         # Dijkstra over (edge, direction) states; cost = distance to the state's entry point
         settled: dict[tuple[int, int], tuple[int, int] | None] = {}
         heap: list[tuple[float, tuple[int, int], tuple[int, int] | None]] = [
-            (remaining, nxt, None) for nxt in self.traversal.successors(start)
+            (remaining, nxt, None) for nxt in graph.successors(start)
         ]
         heapq.heapify(heap)
         found: tuple[float, tuple[int, int]] | None = None
@@ -907,7 +923,7 @@ class TrackMap:
                 if total <= cutoff_m and (found is None or total < found[0]):
                     found = (total, state)
             nxt_cost = cost + self._lengths[e]
-            for nxt in self.traversal.successors(state):
+            for nxt in graph.successors(state):
                 if nxt not in settled:
                     heapq.heappush(heap, (nxt_cost, nxt, state))
         if found is None:

@@ -179,6 +179,71 @@ def split_ways(ways: Sequence[tuple[int, Sequence[int], Mapping[str, str]]]) -> 
     return pieces
 
 
+def drop_duplicate_pieces(pieces: list[Piece]) -> tuple[list[Piece], list[tuple[int, ...]]]:
+    """Remove pieces that repeat another piece's node sequence (either way round).
+
+    OSM sometimes holds two ways over exactly the same nodes; kept, they would look like a
+    loop of zero width and an at-grade crossing of a track with itself. The first piece
+    stays and gains the duplicate's way ids.
+
+    Returns
+    -------
+    pieces : list of Piece
+    duplicates : list of tuple of int
+        The way ids of each group of duplicates (for ``check``).
+    """
+    kept: dict[tuple[int, ...], Piece] = {}
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for p in pieces:
+        seq = tuple(p.node_ids)
+        key = min(seq, seq[::-1])
+        if key in kept:
+            first = kept[key]
+            first.way_ids.extend(w for w in p.way_ids if w not in first.way_ids)
+            groups[key].extend(p.way_ids)
+        else:
+            kept[key] = p
+            groups[key] = list(p.way_ids)
+    dups = [tuple(dict.fromkeys(g)) for g in groups.values() if len(set(g)) > 1]
+    return list(kept.values()), dups
+
+
+def propagate_directions(pieces: list[Piece], directions: list[int], sources: list[str]) -> None:
+    """Give untagged main-line pieces the direction their one-way neighbours imply.
+
+    Where an untagged piece continues a one-way piece through a plain link (two pieces at
+    the node), traffic must flow on; the piece takes that direction when every such link
+    agrees and both ends are such links. Repeated until nothing changes; edits ``directions`` and ``sources`` in place.
+    """
+    ends: dict[int, list[tuple[int, int]]] = defaultdict(list)
+    for i, p in enumerate(pieces):
+        ends[p.node_ids[0]].append((i, 0))
+        ends[p.node_ids[-1]].append((i, 1))
+    changed = True
+    while changed:
+        changed = False
+        for i, p in enumerate(pieces):
+            if directions[i] != 0 or p.attrs.service is not None or p.direction_source != "none":
+                continue
+            implied = set()
+            informed = 0
+            for node, end in ((p.node_ids[0], 0), (p.node_ids[-1], 1)):
+                at = ends[node]
+                if len(at) != 2:
+                    continue
+                j, end_j = at[0] if at[0][0] != i else at[1]
+                if j == i or directions[j] == 0:
+                    continue
+                informed += 1
+                into_node = (directions[j] == 1) == (end_j == 1)
+                out_of_node = 1 if end == 0 else -1
+                implied.add(out_of_node if into_node else -out_of_node)
+            if len(implied) == 1 and informed == 2:
+                directions[i] = implied.pop()
+                sources[i] = "propagated"
+                changed = True
+
+
 def merge_chains(pieces: list[Piece]) -> list[Piece]:
     """Join pieces through nodes where exactly two pieces meet with equal attributes.
 
@@ -479,6 +544,7 @@ class CrossingHit:
     offset_b_m: float
     angle_deg: float
     grade_separated: bool
+    overlap: bool = False
 
 
 def find_crossings(
@@ -508,6 +574,7 @@ def find_crossings(
             continue
         inter = shapely.intersection(lines[a], lines[b])
         points = _intersection_points(inter)
+        overlap = _has_overlap(inter)
         ends = [*node_xy[a], *node_xy[b]]
         for p in points:
             if any(math.hypot(p[0] - e[0], p[1] - e[1]) <= node_tolerance_m for e in ends):
@@ -525,6 +592,7 @@ def find_crossings(
                     offset_b_m=off_b,
                     angle_deg=angle,
                     grade_separated=grade_separated(attrs[a], attrs[b]),
+                    overlap=overlap,
                 )
             )
     return hits
@@ -533,6 +601,16 @@ def find_crossings(
 def grade_separated(a: TrackAttributes, b: TrackAttributes) -> bool:
     """Two tracks cannot meet when on different layers, or either is a bridge or tunnel."""
     return a.layer != b.layer or a.bridge or b.bridge or a.tunnel or b.tunnel
+
+
+def _has_overlap(geom: shapely.Geometry) -> bool:
+    if geom.is_empty:
+        return False
+    if geom.geom_type in ("LineString", "MultiLineString"):
+        return True
+    if geom.geom_type == "GeometryCollection":
+        return any(_has_overlap(g) for g in geom.geoms)
+    return False
 
 
 def _intersection_points(geom: shapely.Geometry) -> list[tuple[float, float]]:
