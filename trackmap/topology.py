@@ -213,7 +213,8 @@ def propagate_directions(pieces: list[Piece], directions: list[int], sources: li
 
     Where an untagged piece continues a one-way piece through a plain link (two pieces at
     the node), traffic must flow on; the piece takes that direction when every such link
-    agrees and both ends are such links. Repeated until nothing changes; edits ``directions`` and ``sources`` in place.
+    agrees and both ends are such links. Repeated until nothing changes; edits
+    ``directions`` and ``sources`` in place.
     """
     ends: dict[int, list[tuple[int, int]]] = defaultdict(list)
     for i, p in enumerate(pieces):
