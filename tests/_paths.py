@@ -55,3 +55,46 @@ def interleave(*streams: Iterable[VehicleReport]) -> list[VehicleReport]:
     merged = [r for s in streams for r in s]
     merged.sort(key=lambda r: r.t)
     return merged
+
+
+def reports_along(
+    vehicle_id: str,
+    line_xy: Sequence[tuple[float, float]],
+    *,
+    start_m: float,
+    speed_mps: float,
+    t: Sequence[float],
+    frame: LocalFrame,
+    reverse: bool = False,
+    **extra: object,
+) -> list[VehicleReport]:
+    """Reports of a vehicle driving along a polyline at constant speed (no noise).
+
+    ``start_m`` is the distance along the line at ``t[0]``; with ``reverse`` the vehicle
+    drives from the line's end towards its start, ``start_m`` counted from the end.
+    """
+    import shapely
+
+    line = shapely.LineString(line_xy)
+    if reverse:
+        line = shapely.LineString(list(line.coords)[::-1])
+    out = []
+    t0 = float(t[0])
+    for ti in t:
+        s = min(start_m + speed_mps * (float(ti) - t0), line.length)
+        p = line.interpolate(s)
+        q = line.interpolate(min(s + 0.5, line.length))
+        r = line.interpolate(max(s - 0.5, 0.0))
+        lon, lat = frame.to_lonlat(p.x, p.y)
+        out.append(
+            VehicleReport(
+                vehicle_id=vehicle_id,
+                t=float(ti),
+                lat=float(lat),
+                lon=float(lon),
+                speed_mps=speed_mps if s < line.length else 0.0,
+                course_deg=heading_deg(q.x - r.x, q.y - r.y),
+                **extra,  # type: ignore[arg-type]
+            )
+        )
+    return out

@@ -340,11 +340,16 @@ class Path:
 
     def locate(self, edge_id: int, offset_m: float) -> float | None:
         """Distance along the path to a track position, or None if the path misses it."""
+        found = self.locate_step(edge_id, offset_m)
+        return None if found is None else found[0]
+
+    def locate_step(self, edge_id: int, offset_m: float) -> tuple[float, PathStep] | None:
+        """Distance along the path to a track position and the step holding it."""
         for step in self.steps:
             if step.edge_id == edge_id:
                 d = step.distance_to(offset_m)
                 if d is not None:
-                    return d
+                    return d, step
         return None
 
 

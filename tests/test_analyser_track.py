@@ -1,0 +1,236 @@
+"""The track-aware analyser against the paper's sector rule on the same trajectories."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import trackmap
+from antikol import braking
+from antikol.analyser import Analyser
+from tests._osm import FRAME, OsmBuilder, diamond_fixture, switch_fixture
+from tests._paths import interleave, reports_along
+
+TRAM = braking.load_profile("tram")
+
+
+def build(b: OsmBuilder, tmp_path) -> trackmap.TrackMap:
+    return trackmap.build(b.write_xml(tmp_path / "f.osm"))
+
+
+def run(net, *streams, own="A", **kw):
+    """Feed both analysers; return {t: (sector assessment, track assessment)} for ``own``."""
+    sector, track = Analyser(), Analyser(track_map=net, **kw)
+    out = {}
+    merged = interleave(*streams)
+    for r in merged:
+        sector.update(r)
+        track.update(r)
+        if r.vehicle_id == own and len(sector.table) == len({x.vehicle_id for x in merged}):
+            out[r.t] = (sector.assess(own), track.assess(own))
+    return out, track
+
+
+def curve_line():
+    b = OsmBuilder()
+    pts = [(0.0, -200.0), (0.0, 0.0), *b.arc(20.0, 0.0, 20.0, 180.0, 90.0, n=16)[1:], (220.0, 20.0)]
+    b.line(pts, oneway="yes")
+    return b, pts
+
+
+def test_following_around_a_sharp_curve(tmp_path):
+    b, pts = curve_line()
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 12.0, 0.5)
+    curve_len = math.pi * 20.0 / 2.0
+    leader_at = 200.0 + curve_len + 10.0  # stopped 10 m past the curve
+    leader = reports_along("B", pts, start_m=leader_at, speed_mps=0.0, t=t, frame=FRAME)
+    follower = reports_along("A", pts, start_m=100.0, speed_mps=9.0, t=t, frame=FRAME)
+    states, _ = run(net, leader, follower)
+    warn = braking.rear_end_distance(9.0, 0.0, TRAM, TRAM)
+    timely = [tt for tt, (_, tr) in states.items() if leader_at - (100 + 9 * tt) <= warn - 1.0]
+    assert timely, "the scenario must reach the warning distance"
+    for tt in timely:
+        sec, tr = states[tt]
+        assert tr.lamp and tr.primary.kind == "rear_end" and tr.primary.method == "track"
+        assert tr.primary.vehicle_id == "B"
+        assert tr.primary.distance_m == pytest.approx(leader_at - (100 + 9 * tt), abs=1.0)
+    # before the curve the leader is 45 degrees off the course: the paper's rule is blind
+    first = timely[0]
+    assert not states[first][0].lamp
+
+
+def double_track(oneway=True):
+    b = OsmBuilder()
+    tags = {"oneway": "yes"} if oneway else {}
+    west = [(0.0, -100.0), (0.0, 1100.0)]
+    east = [(3.8, -100.0), (3.8, 1100.0)]
+    b.line(east, **tags)  # northbound (right-hand running)
+    b.line(west[::-1], **tags)  # southbound
+    return b, east, west
+
+
+@pytest.mark.parametrize("oneway", [True, False])
+def test_oncoming_on_the_adjacent_track_is_suppressed(tmp_path, oneway):
+    b, east, west = double_track(oneway)
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 75.0, 0.25)
+    a = reports_along("A", east, start_m=0.0, speed_mps=8.0, t=t, frame=FRAME)
+    bb = reports_along("B", west, start_m=0.0, speed_mps=8.0, t=t, frame=FRAME, reverse=True)
+    states, _ = run(net, a, bb)
+    sep = {tt: (1200.0 - 16.0 * tt) for tt in states}  # along-track separation
+    sector_on = [sep[tt] for tt, (s, _) in states.items() if s.lamp]
+    assert max(sector_on) == pytest.approx(300.0, abs=5.0)
+    assert min(sector_on) == pytest.approx(3.8 / math.tan(math.radians(15.0)), abs=4.0)
+    for tt, (s, tr) in states.items():
+        assert tr.level == "none", f"false alarm at separation {sep[tt]:.0f} m"
+        if s.lamp:
+            assert [x.vehicle_id for x in tr.suppressed] == ["B"]
+            assert tr.suppressed[0].reason == "parallel_track"
+
+
+def test_head_on_on_single_track(tmp_path):
+    b = OsmBuilder()
+    line = [(0.0, -100.0), (0.0, 1100.0)]
+    b.line(line)  # untagged single track: both directions
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 58.0, 0.25)
+    a = reports_along("A", line, start_m=50.0, speed_mps=10.0, t=t, frame=FRAME)
+    bb = reports_along("B", line, start_m=50.0, speed_mps=8.0, t=t, frame=FRAME, reverse=True)
+    for own, v_own, v_other in (("A", 10.0, 8.0), ("B", 8.0, 10.0)):
+        states, _ = run(net, a, bb, own=own)
+        gap = {tt: 1100.0 - 18.0 * tt for tt in states}
+        warn = braking.head_on_distance(v_own, v_other, TRAM, TRAM)
+        first_track = min(tt for tt, (_, tr) in states.items() if tr.lamp)
+        assert gap[first_track] == pytest.approx(warn, abs=18.0 * 0.25 + 1.0)
+        first_sector = min(tt for tt, (s, _) in states.items() if s.lamp)
+        assert gap[first_sector] == pytest.approx(300.0, abs=2 * 18.0 * 0.25)
+        th = states[first_track][1].primary
+        assert th.kind == "head_on" and th.closing_speed_mps == pytest.approx(18.0, abs=0.5)
+        assert th.ttc_s == pytest.approx(gap[first_track] / 18.0, abs=1.0)
+
+
+def test_merge_at_a_switch_with_overlapping_arrivals(tmp_path):
+    b = switch_fixture()
+    net = build(b, tmp_path)
+    straight = [(0.0, 200.0), (0.0, 0.0), (0.0, -200.0)]
+    branch = [
+        (80.0, 80.0),
+        (30.0, 55.0),
+        (9.0, 30.0),
+        (4.0, 20.0),
+        (1.0, 10.0),
+        (0.0, 0.0),
+        (0.0, -200.0),
+    ]
+    t = np.arange(0.0, 20.0, 0.5)
+    a = reports_along("A", straight, start_m=100.0, speed_mps=8.0, t=t, frame=FRAME)
+    blen = sum(math.dist(p, q) for p, q in zip(branch, branch[1:5], strict=False))
+    bb = reports_along(
+        "B", branch, start_m=blen - 100.0 * 7.0 / 8.0, speed_mps=7.0, t=t, frame=FRAME
+    )
+    states, _ = run(net, a, bb)
+    kinds = {tr.primary.kind for _, tr in states.values() if tr.primary is not None}
+    assert "merge" in kinds
+    lamp_times = [tt for tt, (_, tr) in states.items() if tr.lamp]
+    assert lamp_times, "the merge must raise a warning before the switch"
+    th = states[lamp_times[0]][1].primary
+    assert th.kind == "merge" and th.vehicle_id == "B" and th.distance_m > 0
+
+
+def test_crossing_at_a_diamond_depends_on_arrival_windows(tmp_path):
+    net = build(diamond_fixture(90.0), tmp_path)
+    ns = [(0.0, -150.0), (0.0, 150.0)]
+    we = [(-150.0, 0.0), (150.0, 0.0)]
+    t = np.arange(0.0, 10.0, 0.5)
+    a = reports_along("A", ns, start_m=80.0, speed_mps=8.0, t=t, frame=FRAME)
+    together = reports_along("B", we, start_m=70.0, speed_mps=8.0, t=t, frame=FRAME)
+    states, _ = run(net, a, together)
+    crossing = [tr for _, tr in states.values() if tr.primary and tr.primary.kind == "crossing"]
+    assert crossing and any(tr.lamp for tr in crossing)
+    # the other one is still 140 m + 30 s away when we have passed: no conflict
+    late = reports_along("B", we, start_m=0.0, speed_mps=2.0, t=t, frame=FRAME)
+    states, _ = run(net, a, late)
+    assert all(tr.level == "none" for _, tr in states.values())
+
+
+def test_branch_off_the_planned_route_is_advisory(tmp_path):
+    net = build(switch_fixture(), tmp_path)
+    trunk = next(e for e in net.edges if e.way_ids == (1,))
+    straight = next(e for e in net.edges if e.way_ids == (2,))
+    branch_pts = [(0.0, 0.0), (1.0, 10.0), (4.0, 20.0), (9.0, 30.0), (30.0, 55.0), (80.0, 80.0)]
+    t = np.arange(0.0, 4.0, 0.5)
+    stopped = reports_along("B", branch_pts, start_m=60.0, speed_mps=0.0, t=t, frame=FRAME)
+    approach = [(0.0, -200.0), (0.0, 0.0)]
+    for route, expected in (((trunk.edge_id, straight.edge_id), "advisory"), (None, "warning")):
+        a = reports_along(
+            "A", approach, start_m=150.0, speed_mps=11.0, t=t, frame=FRAME, route=route
+        )
+        states, an = run(net, a, stopped)
+        last = states[max(states)][1]
+        assert last.level == expected
+        assert last.primary.zone == "right"
+        roles = {z.label: z.role for z in an.zones("A")}
+        assert roles == {"straight": "warning", "right": expected}
+
+
+def test_vehicle_off_the_map_falls_back_to_the_sector_rule(tmp_path):
+    b = OsmBuilder()
+    b.line([(0.0, -200.0), (0.0, 600.0)], oneway="yes")
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 3.0, 1.0)
+    a = reports_along(
+        "A", [(0.0, -200.0), (0.0, 600.0)], start_m=100.0, speed_mps=8.0, t=t, frame=FRAME
+    )
+    depot = reports_along(
+        "D", [(40.0, 150.0), (40.0, 160.0)], start_m=0.0, speed_mps=0.0, t=t, frame=FRAME
+    )
+    states, an = run(net, a, depot)
+    last = states[max(states)][1]
+    assert an.position("D").status == "unmatched"
+    assert last.primary.method == "sector" and last.primary.vehicle_id == "D"
+    assert last.method == "track"  # the own vehicle is matched; only the pair falls back
+    # own vehicle off the map: the sector rule throughout
+    states, an = run(net, depot, a, own="D")
+    assert an.position("D").status == "unmatched"
+    assert states[max(states)][1].method == "sector"
+
+
+def test_grade_separated_crossing_raises_no_alarm(tmp_path):
+    b = OsmBuilder()
+    b.line([(0.0, -300.0), (0.0, 600.0)], oneway="yes")
+    b.line([(-300.0, 150.0), (300.0, 150.0)], bridge="yes", layer="1")
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 5.0, 1.0)
+    a = reports_along(
+        "A", [(0.0, -300.0), (0.0, 600.0)], start_m=300.0, speed_mps=8.0, t=t, frame=FRAME
+    )
+    over = reports_along(
+        "B", [(-300.0, 150.0), (300.0, 150.0)], start_m=290.0, speed_mps=2.0, t=t, frame=FRAME
+    )
+    states, _ = run(net, a, over)
+    for s, tr in states.values():
+        assert s.lamp  # the paper's rule sees a vehicle straight ahead
+        assert tr.level == "none"
+        assert [x.reason for x in tr.suppressed] == ["grade_separated"]
+
+
+def test_ambiguous_match_raises_threat_with_its_probability(tmp_path):
+    b = OsmBuilder()
+    b.line([(0.0, -300.0), (0.0, 600.0)], oneway="yes")
+    b.line([(3.8, -300.0), (3.8, 600.0)], oneway="yes")  # two parallel northbound tracks
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 4.0, 1.0)
+    a = reports_along(
+        "A", [(0.0, -300.0), (0.0, 600.0)], start_m=300.0, speed_mps=8.0, t=t, frame=FRAME
+    )
+    mid = reports_along(
+        "B", [(1.9, 0.0), (1.9, 600.0)], start_m=40.0, speed_mps=0.0, t=t, frame=FRAME
+    )
+    states, an = run(net, a, mid)
+    assert an.position("B").status == "ambiguous"
+    th = states[max(states)][1].primary
+    assert th is not None and th.kind == "rear_end" and th.ambiguous
+    assert 0.2 < th.probability < 0.8
