@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -53,7 +54,7 @@ def test_following_around_a_sharp_curve(tmp_path):
     timely = [tt for tt, (_, tr) in states.items() if leader_at - (100 + 9 * tt) <= warn - 1.0]
     assert timely, "the scenario must reach the warning distance"
     for tt in timely:
-        sec, tr = states[tt]
+        _sec, tr = states[tt]
         assert tr.lamp and tr.primary.kind == "rear_end" and tr.primary.method == "track"
         assert tr.primary.vehicle_id == "B"
         assert tr.primary.distance_m == pytest.approx(leader_at - (100 + 9 * tt), abs=1.0)
@@ -127,7 +128,7 @@ def test_merge_at_a_switch_with_overlapping_arrivals(tmp_path):
     ]
     t = np.arange(0.0, 20.0, 0.5)
     a = reports_along("A", straight, start_m=100.0, speed_mps=8.0, t=t, frame=FRAME)
-    blen = sum(math.dist(p, q) for p, q in zip(branch, branch[1:5], strict=False))
+    blen = sum(math.dist(p, q) for p, q in itertools.pairwise(branch))
     bb = reports_along(
         "B", branch, start_m=blen - 100.0 * 7.0 / 8.0, speed_mps=7.0, t=t, frame=FRAME
     )
