@@ -1,0 +1,110 @@
+"""Replay logs (CSV and NMEA directories) through the analyser and the CLI."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from antikol import ReplayError
+from antikol.cli import main
+from antikol.errors import InputFileError
+from antikol.nmea import format_gga, format_rmc
+from antikol.replay import cycles, read_replay_csv, write_replay_csv
+from tests._paths import interleave, reports_from_xy
+
+
+def fig11_reports():
+    t = np.arange(0.0, 46.0, 1.0)
+    v1 = reports_from_xy("V1", t, np.zeros_like(t), -350.0 + 8.0 * t)
+    v2 = reports_from_xy("V2", t, np.full_like(t, 4.0), 350.0 - 8.0 * t)
+    return interleave(v1, v2)
+
+
+def test_bad_rows_are_reported_with_line_numbers(tmp_path):
+    p = tmp_path / "log.csv"
+    p.write_text(
+        "vehicle_id,t,lat,lon,speed_mps,course_deg,extra\n"
+        "T1,0,50.06,19.94,5,90,x\n"
+        "T1,1,95.0,19.94,5,90,x\n"  # line 3: latitude out of range
+        "T1,2,50.06,abc,5,90,x\n"  # line 4: not a number
+        "T1,3\n"  # line 5: too few fields
+        "\n"
+        "T1,4,50.06,19.94,5,90,x\n"
+    )
+    log = read_replay_csv(p)
+    assert [r.t for r in log.reports] == [0.0, 4.0]
+    assert [pr.line for pr in log.problems] == [3, 4, 5]
+    assert "lat" in log.problems[0].reason and "lon" in log.problems[1].reason
+    with pytest.raises(ReplayError, match=r"log.csv:3: .*lat"):
+        read_replay_csv(p, strict=True)
+
+
+def test_header_and_file_errors(tmp_path):
+    p = tmp_path / "bad.csv"
+    p.write_text("id,time,lat,lon\n")
+    with pytest.raises(ReplayError, match="header must start with"):
+        read_replay_csv(p)
+    with pytest.raises(InputFileError):
+        read_replay_csv(tmp_path / "missing.csv")
+    (tmp_path / "empty.csv").write_text("")
+    with pytest.raises(ReplayError, match="empty"):
+        read_replay_csv(tmp_path / "empty.csv")
+
+
+def test_cycles_group_reports():
+    reps = fig11_reports()
+    groups = list(cycles(reps, 5.0))
+    assert sum(len(b) for _, b in groups) == len(reps)
+    assert all(all(t_end - 5.0 < r.t <= t_end for r in b) for t_end, b in groups)
+
+
+def test_cli_replay_reproduces_fig11(tmp_path, capsys):
+    log = write_replay_csv(tmp_path / "fig11.csv", fig11_reports())
+    events = tmp_path / "events.csv"
+    assert main(["replay", str(log), "-o", str(events)]) == 0
+    out = capsys.readouterr().out
+    assert "2 vehicles" in out and "sector rule" in out
+    rows = list(csv.DictReader(events.open()))
+    assert rows and {r["method"] for r in rows} == {"sector"}
+    assert {r["own_id"] for r in rows} == {"V1", "V2"}
+    # one alarm episode per vehicle, from ~300 m down to ~15 m
+    for vid in ("V1", "V2"):
+        dist = [float(r["distance_m"]) for r in rows if r["own_id"] == vid]
+        assert 290.0 <= max(dist) < 300.0
+        assert 14.0 < min(dist) < 40.0
+        line = next(ln for ln in out.splitlines() if ln.startswith(vid))
+        assert line.split()[-1] == "1"
+
+
+def test_cli_replay_with_map_and_strict(tmp_path, capsys):
+    log = write_replay_csv(tmp_path / "fig11.csv", fig11_reports())
+    with log.open("a") as fh:
+        fh.write("V1,100,nan,19.9,1,1\n")
+    assert main(["replay", str(log), "-o", str(tmp_path / "e.csv"), "--strict"]) == 2
+    assert "fig11.csv:94: invalid lat=nan" in capsys.readouterr().err
+    assert main(["replay", str(log), "-o", str(tmp_path / "e.csv"), "--map", "default"]) == 0
+    captured = capsys.readouterr()
+    assert "track-aware analyser" in captured.out
+    assert "skipped line 94" in captured.err
+
+
+def test_cli_replay_of_nmea_directory(tmp_path, capsys):
+    d = tmp_path / "nmea"
+    d.mkdir()
+    epoch = 1_700_000_000.0
+    for vid in ("V1", "V2"):
+        lines = []
+        for r in fig11_reports():
+            if r.vehicle_id != vid:
+                continue
+            shifted = type(r)(vid, epoch + r.t, r.lat, r.lon, r.speed_mps, r.course_deg)
+            lines += [format_rmc(shifted), format_gga(shifted)]
+        (d / f"{vid}.nmea").write_text("\n".join(lines) + "\nGARBAGE LINE\n")
+    events = tmp_path / "events.csv"
+    assert main(["replay", str(d), "-o", str(events)]) == 0
+    out = capsys.readouterr()
+    assert "2 vehicles" in out.out
+    assert "NMEA" in out.err  # the garbage lines are reported, not silently dropped
+    assert len(list(csv.DictReader(events.open()))) > 10
