@@ -391,9 +391,9 @@ class Positioner:
                 window,
             )
             return self.position(vehicle_id, fix.t)
-        st.filter.predict(fix.t)
         s_fix = est.s_m + delta
-        st.filter.update(s_fix, None, s_std_m=self.config.fix_sigma_m)
+        # the fix is far more precise than the track so far: restart the along-track error
+        st.filter.reset(fix.t, s_fix, est.v_mps, s_std_m=self.config.fix_sigma_m)
         st.hyps = [
             Hypothesis(
                 fix.edge_id,

@@ -1,0 +1,146 @@
+"""Track-selective positioning on synthetic maps: mechanics of the filter."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import trackmap
+from antikol import VehicleReport
+from antikol.positioning import DiscreteFix, FixPoint, Positioner, PositioningConfig
+from tests._osm import FRAME, OsmBuilder, switch_fixture
+from tests._paths import reports_along
+
+LINE = [(0.0, -500.0), (0.0, 1500.0)]
+
+
+@pytest.fixture(scope="module")
+def straight(tmp_path_factory):
+    b = OsmBuilder()
+    b.line(LINE, oneway="yes")
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
+
+
+def drive(pos, reports):
+    return [pos.update(r) for r in reports]
+
+
+def test_confident_match_follows_the_vehicle(straight):
+    pos = Positioner(straight)
+    t = np.arange(0.0, 20.0, 1.0)
+    out = drive(pos, reports_along("V", LINE, start_m=100.0, speed_mps=10.0, t=t, frame=FRAME))
+    assert all(p.status == "confident" for p in out)
+    assert [p.edge_id for p in out] == [0] * len(out)
+    offsets = np.array([p.offset_m for p in out])
+    assert np.allclose(offsets, 100.0 + 10.0 * t, atol=0.5)
+    assert out[-1].speed_mps == pytest.approx(10.0, abs=0.2)
+    assert out[-1].sigma_m < 3.0
+
+
+def test_physically_impossible_reports_are_rejected(straight):
+    pos = Positioner(straight)
+    t = np.arange(0.0, 5.0, 1.0)
+    good = reports_along("V", LINE, start_m=100.0, speed_mps=10.0, t=t, frame=FRAME)
+    drive(pos, good)
+    before = pos.position("V")
+    lon, lat = FRAME.to_lonlat(0.0, -500.0 + 900.0)  # 450 m ahead one second later
+    jump = VehicleReport("V", 5.0, lat, lon, 10.0, 0.0)
+    after = pos.update(jump)
+    assert pos.stats["rejected_jump"] == 1
+    assert after.offset_m == pytest.approx(before.offset_m)
+    fast = VehicleReport("V", 6.0, good[-1].lat, good[-1].lon, 60.0, 0.0)
+    pos.update(fast)
+    assert pos.stats["rejected_speed"] == 1
+    # three implausible reports in a row: the vehicle is re-initialised from the evidence
+    for k in range(3):
+        pos.update(VehicleReport("V", 7.0 + k, lat, lon, 0.0, 0.0))
+    assert pos.stats["reset_after_rejections"] == 1
+    assert pos.position("V").offset_m == pytest.approx(900.0, abs=1.0)
+
+
+def test_off_the_map_is_unmatched(straight):
+    pos = Positioner(straight)
+    lon, lat = FRAME.to_lonlat(200.0, 0.0)
+    p = pos.update(VehicleReport("V", 0.0, lat, lon, 5.0, 0.0))
+    assert p.status == "unmatched" and p.edge_id is None and p.lon == pytest.approx(lon)
+
+
+def test_dead_reckoning_then_lost(straight):
+    pos = Positioner(straight, PositioningConfig(dead_reckoning_s=20.0))
+    t = np.arange(0.0, 10.0, 1.0)
+    drive(pos, reports_along("V", LINE, start_m=100.0, speed_mps=10.0, t=t, frame=FRAME))
+    p5 = pos.position("V", 14.0)
+    assert p5.status == "confident" and p5.dead_reckoned_s == pytest.approx(5.0)
+    assert p5.offset_m == pytest.approx(100.0 + 10.0 * 14.0, abs=1.0)
+    p15 = pos.position("V", 24.0)
+    assert p15.sigma_m > p5.sigma_m
+    assert pos.position("V", 30.0).status == "lost"
+
+
+def test_both_branches_stay_alive_past_a_switch_until_separated(tmp_path):
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    branch_pts = [
+        (0.0, -200.0),
+        (0.0, 0.0),
+        (1.0, 10.0),
+        (4.0, 20.0),
+        (9.0, 30.0),
+        (30.0, 55.0),
+        (80.0, 80.0),
+    ]
+    pos = Positioner(net)
+    t = np.arange(0.0, 14.0, 1.0)
+    out = drive(pos, reports_along("V", branch_pts, start_m=170.0, speed_mps=6.0, t=t, frame=FRAME))
+    branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
+    straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
+    just_past = next(
+        p
+        for p in out
+        if p.offset_m is not None and p.edge_id in (branch, straight) and p.offset_m < 6.0
+    )
+    alive = {h.edge_id for h in just_past.hypotheses}
+    assert {branch, straight} <= alive and just_past.status == "ambiguous"
+    assert out[-1].edge_id == branch and out[-1].status == "confident"
+
+
+def test_discrete_fixes_window_and_lost(straight):
+    cfg = PositioningConfig(fix_window_base_m=2.0, fix_window_fraction=0.02)
+    pos = Positioner(straight, cfg)
+    t = np.arange(0.0, 10.0, 1.0)
+    drive(pos, reports_along("V", LINE, start_m=100.0, speed_mps=10.0, t=t, frame=FRAME))
+    # a fix 1.5 m ahead of the prediction: accepted, uncertainty collapses
+    p = pos.fix("V", DiscreteFix(9.0, 0, 191.5, "B1"))
+    assert pos.stats["fix_accepted"] == 1 and p.status == "confident"
+    assert p.sigma_m < 0.6 and p.offset_m == pytest.approx(191.5, abs=0.1)
+    # 100 m later the window is 2 + 0.02 * 100 = 4 m: a fix 10 m off is refused -> lost
+    drive(
+        pos,
+        reports_along(
+            "V", LINE, start_m=200.0, speed_mps=10.0, t=np.arange(10.0, 20.0, 1.0), frame=FRAME
+        ),
+    )
+    p = pos.fix("V", DiscreteFix(19.0, 0, 290.0 + 10.0, "B2"))
+    assert p.status == "lost" and pos.stats["fix_rejected"] == 1
+
+
+def test_missed_expected_fixes_make_the_position_lost(straight):
+    points = [FixPoint(f"L{k}", 0, 600.0 + 24.0 * k) for k in range(6)]
+    pos = Positioner(straight, PositioningConfig(max_missed_fixes=2), fix_points=points)
+    t = np.arange(0.0, 25.0, 1.0)
+    out = drive(pos, reports_along("V", LINE, start_m=500.0, speed_mps=10.0, t=t, frame=FRAME))
+    assert out[5].status == "confident"
+    assert pos.stats["fix_missed"] >= 3
+    assert out[-1].status == "lost"
+
+
+def test_state_is_serialisable_and_restorable(straight):
+    pos = Positioner(straight)
+    t = np.arange(0.0, 6.0, 1.0)
+    drive(pos, reports_along("V", LINE, start_m=100.0, speed_mps=10.0, t=t, frame=FRAME))
+    state = json.loads(json.dumps(pos.state("V")))
+    assert len(state["hypotheses"]) <= pos.config.max_hypotheses
+    other = Positioner(straight)
+    other.restore("V", state)
+    assert other.position("V", 8.0) == pos.position("V", 8.0)
