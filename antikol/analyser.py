@@ -478,15 +478,18 @@ class Analyser:
         if self._views_time == now and self._index_version == self._version:
             return
         assert self.positioner is not None and self.track_map is not None
-        c = self.config
         views: dict[str, _View] = {}
         edge_index: dict[int, list[tuple[str, int]]] = defaultdict(list)
         conflict_index: dict[int, list[tuple[str, int, Path, float, int, int]]] = defaultdict(list)
-        for report in self.table:
+        reports = list(self.table)
+        positions = [self.positioner.position(r.vehicle_id, now) for r in reports]
+        speeds = [
+            pos.speed_mps if pos is not None and pos.matched else r.speed_mps
+            for r, pos in zip(reports, positions, strict=True)
+        ]
+        horizons = self._horizons(reports, speeds)
+        for report, pos, speed, horizon in zip(reports, positions, speeds, horizons, strict=True):
             vid = report.vehicle_id
-            pos = self.positioner.position(vid, now)
-            speed = pos.speed_mps if pos is not None and pos.matched else report.speed_mps
-            horizon = float(braking.horizon_m(speed, self._profile(vid), minimum_m=c.min_horizon_m))
             view = _View(report, pos, speed, horizon)
             if pos is not None and pos.matched:
                 view.hyps = self._hypotheses(pos, horizon)
@@ -509,6 +512,21 @@ class Analyser:
         self._conflict_index = dict(conflict_index)
         self._views_time = now
         self._index_version = self._version
+
+    def _horizons(self, reports: list[VehicleReport], speeds: list[float]) -> list[float]:
+        """Look-ahead of every vehicle, vectorised per braking profile, m."""
+        out = [0.0] * len(reports)
+        groups: dict[int, list[int]] = defaultdict(list)
+        for k, r in enumerate(reports):
+            groups[id(self._profile(r.vehicle_id))].append(k)
+        for members in groups.values():
+            prof = self._profile(reports[members[0]].vehicle_id)
+            hs = braking.horizon_m(
+                np.array([speeds[k] for k in members]), prof, minimum_m=self.config.min_horizon_m
+            )
+            for k, h in zip(members, np.atleast_1d(hs), strict=True):
+                out[k] = float(h)
+        return out
 
     def _hypotheses(self, pos: TrackPosition, horizon: float) -> list[_Hyp]:
         assert self.track_map is not None and pos.edge_id is not None
@@ -759,6 +777,7 @@ class Analyser:
 
     def _suppression_reason(self, own: _View, other: _View, overlap_missed: bool) -> str:
         assert self.track_map is not None
+        c_parallel = self.config.parallel_distance_m
         if overlap_missed:
             return "no_overlap"
         own_edges = {s.edge_id for h in own.hyps for p in h.paths for s in p.steps}
@@ -769,13 +788,9 @@ class Analyser:
         pos = other.position
         if pos is not None and pos.edge_id is not None and pos.offset_m is not None:
             pt = shapely.Point(self.track_map.point_at(pos.edge_id, pos.offset_m))
-            for h in own.hyps:
-                for p in h.paths:
-                    if (
-                        self.track_map.path_geometry(p).distance(pt)
-                        <= self.config.parallel_distance_m
-                    ):
-                        return "parallel_track"
+            geoms = [self.track_map.edges[e].geometry for e in own_edges]
+            if geoms and float(np.min(shapely.distance(pt, geoms))) <= c_parallel:
+                return "parallel_track"
         return "not_reachable"
 
 

@@ -9,6 +9,7 @@ process noise is a discretised white-noise acceleration (constant velocity model
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -16,6 +17,19 @@ from typing import Any
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
+
+
+@functools.lru_cache(maxsize=256)
+def _transition(dim: int, dt: float, var: float) -> tuple[np.ndarray, np.ndarray]:
+    """Transition and process-noise matrices for a time step (cached: steps repeat)."""
+    if dim == 3:
+        f = np.array([[1.0, dt, 0.5 * dt * dt], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+    else:
+        f = np.array([[1.0, dt], [0.0, 1.0]])
+    q = Q_discrete_white_noise(dim=dim, dt=dt, var=var)
+    f.setflags(write=False)
+    q.setflags(write=False)
+    return f, q
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,12 +121,7 @@ class AlongTrackFilter:
         self.t = float(t)
 
     def _transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        if self.with_acceleration:
-            f = np.array([[1.0, dt, 0.5 * dt * dt], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
-        else:
-            f = np.array([[1.0, dt], [0.0, 1.0]])
-        q = Q_discrete_white_noise(dim=self.dim, dt=dt, var=self.accel_sigma_mps2**2)
-        return f, q
+        return _transition(self.dim, round(dt, 6), self.accel_sigma_mps2**2)
 
     def predict(self, t: float) -> None:
         """Advance the state to time ``t`` (s); earlier times are ignored."""

@@ -242,6 +242,7 @@ class _VehicleState:
     missed_fixes: int = 0
     expected_fixes: list[tuple[str, float]] = field(default_factory=list)
     unmatched: bool = False
+    output: TrackPosition | None = None
 
 
 class Positioner:
@@ -339,7 +340,11 @@ class Positioner:
         st = self._states.get(vehicle_id)
         if st is None or st.last is None:
             return None
-        return self._output(vehicle_id, st, st.last.t if t is None else max(t, st.last.t))
+        when = st.last.t if t is None else max(t, st.last.t)
+        if st.output is not None and st.output.t == when:
+            return st.output
+        st.output = self._output(vehicle_id, st, when)
+        return st.output
 
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle's state (it left the vehicle table)."""
@@ -363,6 +368,8 @@ class Positioner:
             The new position (None for an unknown vehicle).
         """
         st = self._states.get(vehicle_id)
+        if st is not None:
+            st.output = None
         if st is None or st.last is None or not st.hyps or not st.filter.initialised:
             self.stats["fix_unusable"] += 1
             return self.position(vehicle_id)
@@ -482,6 +489,7 @@ class Positioner:
         st = self._states.get(vid)
         if st is None:
             st = self._states[vid] = self._new_state()
+        st.output = None
         reason = self._implausible(st, report, xy)
         if reason is not None:
             st.rejected_in_row += 1
