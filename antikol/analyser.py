@@ -81,16 +81,20 @@ class AnalyserConfig:
         Half-width of the corridor polygons drawn for zones, m.
     parallel_distance_m : float
         A suppressed vehicle this close to a zone counts as on a parallel track, m.
+    gap_margin_sigmas : float
+        Gaps are shortened by this many standard deviations of the combined along-track
+        uncertainty of both positions before the level is chosen (err towards warning).
     """
 
     min_horizon_m: float = 300.0
-    conflict_probability: float = 0.05
+    conflict_probability: float = 0.2
     max_hypotheses: int = 3
     min_hypothesis_probability: float = 0.01
     window_slack_s: float = 5.0
     stopped_speed_mps: float = 0.5
     corridor_half_width_m: float = 1.7
     parallel_distance_m: float = 10.0
+    gap_margin_sigmas: float = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -200,7 +204,14 @@ class Analyser:
         self.sector = sector if sector is not None else SectorRule()
         self.own_id = own_id
         table_capacity = (32 if own_id is not None else None) if capacity == "auto" else capacity
-        self.table = VehicleTable(capacity=table_capacity, expiry_s=expiry_s, own_id=own_id)
+        self.expiry_s = float(expiry_s)
+        # Control-room use emulates every vehicle's own unit: a vehicle that falls silent (GPS
+        # lost in a tunnel) keeps being assessed on its dead-reckoned position, while the
+        # others stop seeing it after expiry_s, as in the paper.
+        retain = self.expiry_s
+        if own_id is None and track_map is not None:
+            retain = max(retain, (positioning or PositioningConfig()).dead_reckoning_s)
+        self.table = VehicleTable(capacity=table_capacity, expiry_s=retain, own_id=own_id)
         self.courses = CourseKeeper(min_speed_mps=self.sector.min_speed_for_course_mps)
         self.profile = profile if profile is not None else braking.load_profile("tram")
         self.profiles = dict(profiles or {})
@@ -340,7 +351,7 @@ class Analyser:
         if own is None:
             raise UnknownVehicleError(f"no current report of vehicle {vid!r}")
         now = self.table.clock if t is None else float(t)
-        others = self.table.others(vid)
+        others = [r for r in self.table.others(vid) if now - r.t <= self.expiry_s]
         hits = self._sector_hits(own, others)
         if self.track_map is None:
             plain = [self._sector_threat(own, self.table.get(h.vehicle_id), h) for h in hits]
@@ -358,7 +369,7 @@ class Analyser:
             return self._assessment(vid, now, threats, [], "sector")
         for ovid in self._track_candidates(vid, own_view) | set(hit_by_id):
             ov = self._views.get(ovid)
-            if ov is None:
+            if ov is None or now - ov.report.t > self.expiry_s:
                 continue
             hit = hit_by_id.get(ovid)
             if not ov.matched:
@@ -658,7 +669,7 @@ class Analyser:
             closing = own.speed_mps + other.speed_mps
         gap = d - own_front - extent
         level = braking.classify(
-            gap,
+            gap - self._uncertainty(own, other),
             own.speed_mps,
             self._profile(own.report.vehicle_id),
             kind=kind,  # type: ignore[arg-type]
@@ -726,13 +737,14 @@ class Analyser:
             return None, True
         gap = max(own_in, 0.0)
         level = braking.classify(
-            gap,
+            gap - self._uncertainty(own, other),
             own.speed_mps,
             self._profile(own.report.vehicle_id),
             kind="static",
             horizon_m=own.horizon_m,
         )
-        closing = own.speed_mps
+        # a standing vehicle at a merge or crossing is the obstacle, not the one to act
+        closing = own.speed_mps if own.speed_mps >= self.config.stopped_speed_mps else 0.0
         level = self._cap(level, own, closing, path)
         where = "switch" if kind == "merge" else "crossing"
         return (
@@ -748,6 +760,12 @@ class Analyser:
             ),
             False,
         )
+
+    def _uncertainty(self, own: _View, other: _View) -> float:
+        """Margin for position uncertainty: k x sqrt(sigma_own^2 + sigma_other^2), m."""
+        s1 = own.position.sigma_m if own.position and own.position.sigma_m else 0.0
+        s2 = other.position.sigma_m if other.position and other.position.sigma_m else 0.0
+        return self.config.gap_margin_sigmas * math.hypot(s1, s2)
 
     def _window(self, view: _View, d_in: float, d_out: float) -> tuple[float, float] | None:
         """Time interval a vehicle occupies a zone from d_in to d_out ahead, s (None if it

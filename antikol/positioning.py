@@ -63,9 +63,10 @@ class PositioningConfig:
         Hypotheses kept per vehicle.
     min_probability : float
         Hypotheses below this probability are dropped.
-    course_sigma_deg : float
-        Course agreement scale, degrees (grows as speed falls below
-        ``min_speed_for_course_mps``).
+    course_sigma_deg, course_noise_deg_mps : float
+        Course agreement scale: ``hypot(course_sigma_deg, course_noise_deg_mps / speed)``
+        degrees (track-heading mismatch plus a Doppler course error that shrinks with
+        speed).
     course_outlier_weight : float
         Weight of the uniform floor of the course likelihood.
     min_speed_for_course_mps : float
@@ -100,13 +101,19 @@ class PositioningConfig:
         Expected fixes that may be missed in a row before the position is lost.
     relocalise_after : int
         A lost vehicle is trusted again after this many confident GPS matches in a row.
+    standstill_distance_m, standstill_evidence_weight : float
+        While the vehicle moves less than ``standstill_distance_m`` between fixes, the
+        emission log-likelihood is scaled by ``standstill_evidence_weight``: GPS errors are
+        correlated in time, so the fixes of a standing vehicle repeat rather than add
+        evidence.
     """
 
     gps_sigma_m: float = 4.0
     search_radius_m: float = 25.0
     max_hypotheses: int = 8
     min_probability: float = 1e-4
-    course_sigma_deg: float = 15.0
+    course_sigma_deg: float = 6.0
+    course_noise_deg_mps: float = 20.0
     course_outlier_weight: float = 0.02
     min_speed_for_course_mps: float = 2.0
     wrong_way_log_prior: float = math.log(0.02)
@@ -127,6 +134,8 @@ class PositioningConfig:
     fix_sigma_m: float = 0.5
     max_missed_fixes: int = 2
     relocalise_after: int = 5
+    standstill_distance_m: float = 1.0
+    standstill_evidence_weight: float = 0.2
 
 
 @dataclass(frozen=True, slots=True)
@@ -604,7 +613,10 @@ class Positioner:
         c = self.config
         sigma = self._sigma(report)
         use_course = report.speed_mps >= c.min_speed_for_course_mps
-        course_sigma = c.course_sigma_deg
+        # receivers derive the course from Doppler velocity: its error shrinks with speed
+        course_sigma = math.hypot(
+            c.course_sigma_deg, c.course_noise_deg_mps / max(report.speed_mps, 0.1)
+        )
         states = []
         seen: set[int] = set()
         for r in rows.tolist():
@@ -683,6 +695,10 @@ class Positioner:
                     progress[j] = h.progress_m + dist
                     parents[j] = (i, dist, path)
         emissions = np.array([s[3] for s in states])
+        if travelled < c.standstill_distance_m:
+            # a standing receiver's errors barely change between fixes: repeated fixes are
+            # not independent evidence, so they must not talk the filter into certainty
+            emissions = emissions * c.standstill_evidence_weight
         weights = np.where(np.isfinite(logsum), logsum + emissions, _NEG_INF)
         return weights, progress, parents
 

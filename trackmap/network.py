@@ -791,7 +791,7 @@ class TrackMap:
                     else ("buffer_stop" if node and node.cls == "buffer_stop" else "dead_end")
                 )
                 if succ:
-                    logger.warning("paths_ahead: more than %d branches; truncated", max_paths)
+                    logger.debug("paths_ahead: more than %d branches; truncated", max_paths)
                 results.append(self._make_path(steps, nodes, conflicts, labels, end))
                 continue
             node = self.nodes[node_id]
