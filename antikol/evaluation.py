@@ -22,8 +22,8 @@ An analyser's warning for a pair is any threat on that vehicle of level ``warnin
 above (the paper's lamp). The scores:
 
 * required-warning episodes (maximal runs of "required" cycles of a pair): **timely** when
-  the analyser warned at or before the episode's first cycle, **late** when it warned only
-  later in the episode, **missed** when it never did;
+  the analyser warned at the episode's first cycle or in the 10 s before it, **late** when
+  it warned only later in the episode, **missed** when it never did;
 * **false-alarm episodes** — maximal runs of warnings on a clearly conflict-free pair, per
   vehicle-hour in service;
 * **flicker** — on/off toggles of each vehicle's lamp per vehicle-hour;
@@ -187,6 +187,7 @@ def ground_truth(
     clear_factor: float = 1.5,
     min_horizon_m: float = 300.0,
     off_map: Iterable[str] = (),
+    tolerance_m: float = 2.0,
 ) -> GroundTruth:
     """Label every ordered pair at every analysis time from the true states.
 
@@ -206,6 +207,9 @@ def ground_truth(
     off_map : iterable of str
         Vehicles driving on tracks apart from the network (a depot not in the map): they
         conflict with nobody.
+    tolerance_m : float
+        A warning is required once the gap is this much inside the required distance, so
+        that decimetre grazes of a braking distance are not scored, m.
 
     Returns
     -------
@@ -281,7 +285,7 @@ def ground_truth(
                     need = braking.head_on_distance(si["v"], sj["v"], prof_i, specs[j].profile)
                     kind = "head_on"
                 standing = si["v"] < STOPPED_MPS and (not same or sj["v"] >= si["v"])
-                if edge_d - si["s"] <= need and not (standing and same):
+                if edge_d - si["s"] <= need - tolerance_m and not (standing and same):
                     labels[j], kind_of[j] = REQUIRED, kind
                 elif first - si["s"] <= clear_factor * horizon[i]:
                     labels[j] = NEUTRAL
@@ -296,7 +300,7 @@ def ground_truth(
                             p.t_in_s <= q.t_out_s + window_slack_s
                             and q.t_in_s <= p.t_out_s + window_slack_s
                         )
-                        if overlap and to_entry <= warn:
+                        if overlap and to_entry <= warn - tolerance_m:
                             labels[j], kind_of[j] = REQUIRED, p.kind
                         elif labels[j] == CLEAR:
                             labels[j] = NEUTRAL
@@ -474,8 +478,16 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
-def score(truth: GroundTruth, log: AlarmLog, *, cycle_s: float = 1.0) -> Score:
-    """Score an analyser's alarm log against the ground truth."""
+def score(
+    truth: GroundTruth, log: AlarmLog, *, cycle_s: float = 1.0, lookback_s: float = 10.0
+) -> Score:
+    """Score an analyser's alarm log against the ground truth.
+
+    A required-warning episode is timely when a warning was on at its first cycle or in
+    the ``lookback_s`` before it (the driver had been warned before the gap fell below the
+    required distance).
+    """
+    back = max(round(lookback_s / cycle_s), 0)
     sc = Score(vehicle_hours=truth.vehicle_hours())
     for pair, st in truth.state.items():
         warn = log.pair_warn.get(pair)
@@ -484,12 +496,13 @@ def score(truth: GroundTruth, log: AlarmLog, *, cycle_s: float = 1.0) -> Score:
         for a, b in _runs(st == REQUIRED):
             sc.required += 1
             hits = np.flatnonzero(warn[a:b])
-            if warn[a]:
+            before = np.flatnonzero(warn[max(a - back, 0) : a + 1])
+            if len(before):
                 sc.timely += 1
-                start = a
-                while start > 0 and warn[start - 1]:
-                    start -= 1
-                sc.leads_s.append((a - start) * cycle_s)
+                first = max(a - back, 0) + int(before[0])
+                while first > 0 and warn[first - 1]:
+                    first -= 1
+                sc.leads_s.append((a - first) * cycle_s)
             elif len(hits):
                 sc.late += 1
             else:
