@@ -778,8 +778,12 @@ class Analyser:
         return (d_in / v, d_out / v)
 
     def _cap(self, level: Level, own: _View, closing: float, path: Path) -> Level:
-        """Standing and not closing: at most advisory; off the planned route: advisory."""
-        if own.speed_mps < self.config.stopped_speed_mps and closing <= 0.0:
+        """Standing and not (or barely) closing: at most advisory; off the planned route:
+        advisory."""
+        if (
+            own.speed_mps < self.config.stopped_speed_mps
+            and closing <= self.config.stopped_speed_mps
+        ):
             level = "advisory" if level_rank(level) > level_rank("advisory") else level
         if self._zone_role(own.report, path) == "advisory":
             level = "advisory" if level_rank(level) > level_rank("advisory") else level

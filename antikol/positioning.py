@@ -101,6 +101,10 @@ class PositioningConfig:
         Expected fixes that may be missed in a row before the position is lost.
     relocalise_after : int
         A lost vehicle is trusted again after this many confident GPS matches in a row.
+    reversal_log_prior : float
+        Log-probability that a standing vehicle changes its running direction between two
+        fixes (bidirectional trams at termini); small, because at a standstill nothing
+        else tells the directions apart and the alternative would slowly gain weight.
     standstill_distance_m, standstill_evidence_weight : float
         While the vehicle moves less than ``standstill_distance_m`` between fixes, the
         emission log-likelihood is scaled by ``standstill_evidence_weight``: GPS errors are
@@ -134,6 +138,7 @@ class PositioningConfig:
     fix_sigma_m: float = 0.5
     max_missed_fixes: int = 2
     relocalise_after: int = 5
+    reversal_log_prior: float = math.log(1e-4)
     standstill_distance_m: float = 1.0
     standstill_evidence_weight: float = 0.2
 
@@ -683,7 +688,7 @@ class Positioner:
                     if e == h.edge_id and d == -h.direction and travelled < 1.0:
                         # a stopped vehicle may change direction (bidirectional trams)
                         dist, path = abs(off - h.offset_m), None
-                        trans = math.log(1e-3) - abs(dist) / beta
+                        trans = c.reversal_log_prior - abs(dist) / beta
                     else:
                         continue
                 else:
