@@ -235,3 +235,29 @@ def test_ambiguous_match_raises_threat_with_its_probability(tmp_path):
     th = states[max(states)][1].primary
     assert th is not None and th.kind == "rear_end" and th.ambiguous
     assert 0.2 < th.probability < 0.8
+
+
+def test_radio_stream_and_own_nmea_feed_the_same_analyser(tmp_path):
+    from antikol.nmea import format_rmc
+    from antikol.protocol import encode_report
+
+    b, east, _ = double_track(True)
+    net = build(b, tmp_path)
+    t = np.arange(0.0, 4.0, 1.0)
+    epoch = 1_700_000_000.0
+    own = reports_along("A", east, start_m=300.0, speed_mps=8.0, t=t + epoch, frame=FRAME)
+    other = reports_along("B", east, start_m=360.0, speed_mps=0.0, t=t + epoch, frame=FRAME)
+    an = Analyser(track_map=net, own_id="A")
+    frames = [encode_report(r, seq=k) for k, r in enumerate(other)]
+    # a radio stream cut anywhere, with a broken frame between two intact ones
+    noisy = frames[0] + b"\x00\x01garbage\x00" + b"".join(frames[1:])
+    for k in range(0, len(noisy), 7):
+        an.feed_bytes(noisy[k : k + 7])
+    for r in own:
+        an.feed_nmea(format_rmc(r))
+    an.feed_nmea("$GPRMC,bad*00")
+    assert an.decoder_stats.frames_ok == len(frames)
+    assert an.decoder_stats.rejected_total >= 1
+    a = an.assess()
+    assert a.primary is not None and a.primary.vehicle_id == "B"
+    assert a.primary.kind == "rear_end" and a.primary.method == "track"
