@@ -114,40 +114,43 @@ def _main_state(net: TrackMap, state: tuple[int, int]) -> bool:
     return e.service is None and e.allows(state[1])
 
 
-def _walk_back(net: TrackMap, state: tuple[int, int], length_m: float) -> list[tuple[int, int]]:
-    """Steps leading into ``state`` (not included), about ``length_m`` long, main line first."""
+def _walk(
+    net: TrackMap, state: tuple[int, int], length_m: float, *, forward: bool
+) -> list[tuple[int, int]]:
+    """Steps following (or, backwards, leading into) ``state``, not included, about
+    ``length_m`` long: main line first, then the straightest move."""
     steps: list[tuple[int, int]] = []
     total = 0.0
     cur = state
     seen = {state}
     while total < length_m:
-        preds = [p for p in net.traversal.predecessors(cur) if p not in seen]
-        if not preds:
+        moves = net.traversal.successors(cur) if forward else net.traversal.predecessors(cur)
+        options = [m for m in moves if m not in seen]
+        if not options:
             break
-        preds.sort(key=lambda p: (not _main_state(net, p), p))
-        cur = preds[0]
+        options.sort(
+            key=lambda m: (
+                not _main_state(net, m),
+                _turn(net, cur, m) if forward else _turn(net, m, cur),
+                m,
+            )
+        )
+        cur = options[0]
         seen.add(cur)
-        steps.insert(0, cur)
+        if forward:
+            steps.append(cur)
+        else:
+            steps.insert(0, cur)
         total += net.edge_length(cur[0])
     return steps
+
+
+def _walk_back(net: TrackMap, state: tuple[int, int], length_m: float) -> list[tuple[int, int]]:
+    return _walk(net, state, length_m, forward=False)
 
 
 def _walk_ahead(net: TrackMap, state: tuple[int, int], length_m: float) -> list[tuple[int, int]]:
-    """Steps following ``state`` (not included), straightest branch first."""
-    steps: list[tuple[int, int]] = []
-    total = 0.0
-    cur = state
-    seen = {state}
-    while total < length_m:
-        succ = [s for s in net.traversal.successors(cur) if s not in seen]
-        if not succ:
-            break
-        succ.sort(key=lambda s: (not _main_state(net, s), _turn(net, cur, s)))
-        cur = succ[0]
-        seen.add(cur)
-        steps.append(cur)
-        total += net.edge_length(cur[0])
-    return steps
+    return _walk(net, state, length_m, forward=True)
 
 
 def _turn(net: TrackMap, a: tuple[int, int], b: tuple[int, int]) -> float:
