@@ -321,6 +321,29 @@ def _tunnel(net: TrackMap) -> tuple[int, int]:
 
 
 # -- scenario builders --------------------------------------------------------------------
+def _scenario(
+    builder: Callable[..., Scenario],
+    net: TrackMap,
+    specs: tuple[TramSpec, ...],
+    gps: GpsModel,
+    duration_s: float,
+    seed: int,
+    *,
+    off_map: dict[str, tuple[TrackMap, TramSpec]] | None = None,
+) -> Scenario:
+    """A scenario named and described by the function that builds it."""
+    return Scenario(
+        builder.__name__,
+        builder.__doc__ or "",
+        net,
+        specs,
+        gps,
+        duration_s,
+        seed,
+        off_map=off_map or {},
+    )
+
+
 def _spec(vid: str, route: Route, **kw: object) -> TramSpec:
     kw.setdefault("stops", ())
     return TramSpec(vehicle_id=vid, route=route, **kw)  # type: ignore[arg-type]
@@ -345,9 +368,8 @@ def following_straight(net: TrackMap, *, seed: int = 0, gap_m: float = 150.0) ->
     route, _ = _route_through(net, state, best.length_m / 2.0, 300.0, 600.0)
     leader = _spec("L", _sub(net, route, gap_m), script=(ScriptEvent.speed_cap(0.0, 4.0),))
     follower = _spec("F", route, script=(ScriptEvent.inattentive(0.0, 35.0),))
-    return Scenario(
-        "following_straight",
-        following_straight.__doc__ or "",
+    return _scenario(
+        following_straight,
         net,
         (leader, follower),
         default_gps(),
@@ -366,9 +388,8 @@ def following_curve(net: TrackMap, *, seed: int = 0, gap_m: float = 120.0) -> Sc
         _sub(net, route, max(where - 60.0 - gap_m, 0.0)),
         script=(ScriptEvent.inattentive(0.0, 12.0),),
     )
-    return Scenario(
-        "following_curve",
-        following_curve.__doc__ or "",
+    return _scenario(
+        following_curve,
         net,
         (leader, follower),
         default_gps(),
@@ -384,9 +405,8 @@ def leader_behind_curve(net: TrackMap, *, seed: int = 0) -> Scenario:
     leader = _spec("L", _sub(net, route, where + 25.0), script=(ScriptEvent.hold(0.0, None),))
     # the driver looks away for the first 20 s and only then brakes for the standing tram
     follower = _spec("F", route, script=(ScriptEvent.inattentive(0.0, 20.0),))
-    return Scenario(
-        "leader_behind_curve",
-        leader_behind_curve.__doc__ or "",
+    return _scenario(
+        leader_behind_curve,
         net,
         (leader, follower),
         default_gps(),
@@ -402,9 +422,8 @@ def oncoming_double_track(net: TrackMap, *, seed: int = 0) -> Scenario:
     rb, _ = _route_through(net, b_state, b_at, 320.0, 320.0)
     a = _spec("A", ra, initial_speed_mps=8.0, script=(ScriptEvent.speed_cap(0.0, 8.0),))
     b = _spec("B", rb, initial_speed_mps=8.0, script=(ScriptEvent.speed_cap(0.0, 8.0),))
-    return Scenario(
-        "oncoming_double_track",
-        oncoming_double_track.__doc__ or "",
+    return _scenario(
+        oncoming_double_track,
         net,
         (a, b),
         default_gps(),
@@ -420,9 +439,8 @@ def single_track_head_on(net: TrackMap, *, seed: int = 0) -> Scenario:
     rb, _ = _route_through(net, (e, -1), length, 150.0, length)
     a = _spec("A", ra)
     b = _spec("B", rb)
-    return Scenario(
-        "single_track_head_on",
-        single_track_head_on.__doc__ or "",
+    return _scenario(
+        single_track_head_on,
         net,
         (a, b),
         default_gps(),
@@ -442,9 +460,7 @@ def merge_at_switch(net: TrackMap, *, seed: int = 0, approach_m: float = 250.0) 
         routes.append(Route.from_steps(net, steps, start_offset_m=route.start_offset_m))
     a = _spec("A", routes[0], initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
     b = _spec("B", routes[1], initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
-    return Scenario(
-        "merge_at_switch", merge_at_switch.__doc__ or "", net, (a, b), default_gps(), 80.0, seed
-    )
+    return _scenario(merge_at_switch, net, (a, b), default_gps(), 80.0, seed)
 
 
 def diamond_crossing(net: TrackMap, *, seed: int = 0, approach_m: float = 250.0) -> Scenario:
@@ -457,9 +473,8 @@ def diamond_crossing(net: TrackMap, *, seed: int = 0, approach_m: float = 250.0)
         specs.append(
             _spec(vid, route, initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
         )
-    return Scenario(
-        "diamond_crossing",
-        diamond_crossing.__doc__ or "",
+    return _scenario(
+        diamond_crossing,
         net,
         tuple(specs),
         default_gps(),
@@ -503,9 +518,8 @@ def depot_off_map(net: TrackMap, *, seed: int = 0, offset_m: float = 45.0) -> Sc
     depot_net = depot.build()
     d_route = Route.from_steps(depot_net, [(0, 1)])
     shunter = TramSpec(vehicle_id="D", route=d_route, stops=(), max_speed_mps=3.0)
-    return Scenario(
-        "depot_off_map",
-        depot_off_map.__doc__ or "",
+    return _scenario(
+        depot_off_map,
         net,
         (own,),
         default_gps(),
@@ -527,9 +541,8 @@ def tunnel_dropout(net: TrackMap, *, seed: int = 0) -> Scenario:
     start = max(entry - 200.0, 0.0)
     looks_up = (exit_at - start + 20.0) / 12.0  # the driver looks up just past the portal
     follower = _spec("F", _sub(net, route, start), script=(ScriptEvent.inattentive(0.0, looks_up),))
-    return Scenario(
-        "tunnel_dropout",
-        tunnel_dropout.__doc__ or "",
+    return _scenario(
+        tunnel_dropout,
         net,
         (leader, follower),
         default_gps(),
