@@ -30,7 +30,7 @@ from typing import Literal
 
 import numpy as np
 
-from antikol.geometry import paper_offsets
+from antikol.analysis.geometry import paper_offsets
 from antikol.report import VehicleReport
 
 logger = logging.getLogger(__name__)

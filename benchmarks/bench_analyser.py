@@ -15,8 +15,8 @@ import statistics
 import time
 
 import trackmap
-from antikol.analyser import Analyser
-from antikol.simulation import GpsModel, Simulator, fleet
+from antikol.analysis.analyser import Analyser
+from antikol.sim.simulation import GpsModel, Simulator, fleet
 
 
 def cycles(net: trackmap.TrackMap, n: int, seconds: float) -> list[list]:

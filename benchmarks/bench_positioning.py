@@ -24,8 +24,8 @@ import time
 import numpy as np
 
 import trackmap
-from antikol.positioning import Positioner
-from antikol.simulation import GpsModel, Simulator, fleet
+from antikol.positioning.matcher import Positioner
+from antikol.sim.simulation import GpsModel, Simulator, fleet
 
 GPS = GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10)
 

@@ -1,10 +1,10 @@
-"""Throughput of the broadcast radio protocol (:mod:`antikol.protocol`).
+"""Throughput of the broadcast radio protocol (:mod:`antikol.ingest.protocol`).
 
 Run as ``python benchmarks/bench_protocol.py [n_frames]``. It builds a realistic stream
 (default 100,000 frames from 32 senders, half of them sending every optional field),
-measures :func:`~antikol.protocol.encode_report` and :class:`~antikol.protocol.StreamDecoder`
-on it (random chunk sizes of 1 to 1500 bytes, like UDP datagrams or serial reads), and,
-in the same run, two peers on the same reports:
+measures :func:`~antikol.ingest.protocol.encode_report` and
+:class:`~antikol.ingest.protocol.StreamDecoder` on it (random chunk sizes of 1 to 1500
+bytes, like UDP datagrams or serial reads), and, in the same run, two peers on the same reports:
 
 * ``struct.pack`` / ``struct.unpack`` of the raw fixed fields alone (no framing, no CRC,
   no optional fields, no validation): a floor for any binary encoding in Python;
@@ -24,7 +24,7 @@ import sys
 import time
 from collections.abc import Callable
 
-from antikol.protocol import StreamDecoder, encode_report
+from antikol.ingest.protocol import StreamDecoder, encode_report
 from antikol.report import ReportedTrackPosition, VehicleReport
 
 N_FRAMES = 100_000

@@ -22,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from antikol.braking import (
+from antikol.analysis.braking import (
     emergency_distance,
     load_profile,
     permitted_speed,

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import trackmap
-from antikol import braking
-from antikol.analyser import Analyser
+from antikol.analysis import braking
+from antikol.analysis.analyser import Analyser
 from tests._osm import FRAME, OsmBuilder, diamond_fixture, switch_fixture
 from tests._paths import interleave, reports_along
 
@@ -238,8 +238,8 @@ def test_ambiguous_match_raises_threat_with_its_probability(tmp_path):
 
 
 def test_radio_stream_and_own_nmea_feed_the_same_analyser(tmp_path):
-    from antikol.nmea import format_rmc
-    from antikol.protocol import encode_report
+    from antikol.ingest.nmea import format_rmc
+    from antikol.ingest.protocol import encode_report
 
     b, east, _ = double_track(True)
     net = build(b, tmp_path)

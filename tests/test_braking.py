@@ -1,4 +1,4 @@
-"""Tests of the braking and warning model (antikol.braking)."""
+"""Tests of the braking and warning model (antikol.analysis.braking)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from antikol.braking import (
+from antikol.analysis.braking import (
     G_MPS2,
     LEVELS,
     BrakingProfile,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from antikol import UnknownVehicleError
-from antikol.analyser import Analyser
+from antikol.analysis.analyser import Analyser
 from tests._paths import interleave, reports_from_xy
 
 DT = 0.1

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from antikol import geometry as g
+from antikol.analysis import geometry as g
 
 
 def test_formulas_4_to_8_by_hand():

@@ -14,7 +14,7 @@ from pynmeagps import VALCKSUM, VALMSGID, NMEAReader
 from pynmeagps.nmeahelpers import calc_checksum
 
 from antikol.errors import InputFileError, InvalidReportError, ProtocolError
-from antikol.nmea import (
+from antikol.ingest.nmea import (
     KNOT_MPS,
     SKIP_REASONS,
     NmeaReader,
@@ -602,7 +602,7 @@ def test_constructor_validates_vehicle_fields() -> None:
 
 
 def test_rejections_are_logged_at_debug(caplog: pytest.LogCaptureFixture) -> None:
-    with caplog.at_level(logging.DEBUG, logger="antikol.nmea"):
+    with caplog.at_level(logging.DEBUG, logger="antikol.ingest.nmea"):
         read_all([CLASSIC_RMC[:-2] + "00"])
     assert any(
         "checksum" in rec.getMessage() and rec.levelno == logging.DEBUG for rec in caplog.records

@@ -9,7 +9,7 @@ import pytest
 
 import trackmap
 from antikol import VehicleReport
-from antikol.positioning import DiscreteFix, FixPoint, Positioner, PositioningConfig
+from antikol.positioning.matcher import DiscreteFix, FixPoint, Positioner, PositioningConfig
 from tests._osm import FRAME, OsmBuilder, switch_fixture
 from tests._paths import reports_along
 

@@ -1,4 +1,4 @@
-"""Tests of the broadcast radio protocol (:mod:`antikol.protocol`)."""
+"""Tests of the broadcast radio protocol (:mod:`antikol.ingest.protocol`)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from antikol.errors import AntikolError, InvalidReportError, ProtocolError
-from antikol.protocol import (
+from antikol.ingest.protocol import (
     MAX_FRAME_BYTES,
     PROTOCOL_MAJOR,
     REJECT_REASONS,
@@ -466,7 +466,7 @@ def test_structural_errors_counted_as_bad_payload(body: bytes, detail: str) -> N
 
 def test_rejections_logged_at_debug(caplog: pytest.LogCaptureFixture) -> None:
     dec = StreamDecoder()
-    with caplog.at_level(logging.DEBUG, logger="antikol.protocol"):
+    with caplog.at_level(logging.DEBUG, logger="antikol.ingest.protocol"):
         dec.feed(_wire(_hand_body(major=9)))
     assert any(
         rec.levelno == logging.DEBUG and "bad_version" in rec.getMessage() for rec in caplog.records
@@ -496,7 +496,7 @@ def test_feed_accepts_bytes_like_and_keeps_partial_frame_pending() -> None:
 
 
 def test_decoder_bug_is_counted_not_raised(monkeypatch: pytest.MonkeyPatch) -> None:
-    import antikol.protocol as protocol
+    import antikol.ingest.protocol as protocol
 
     def broken(body: bytes) -> tuple[VehicleReport, int]:
         raise RuntimeError("bug")

@@ -10,8 +10,9 @@ import pytest
 from antikol import ReplayError
 from antikol.cli import main
 from antikol.errors import InputFileError
-from antikol.nmea import format_gga, format_rmc
-from antikol.replay import cycles, read_replay_csv, write_replay_csv
+from antikol.evaluation.replay import cycles
+from antikol.ingest.nmea import format_gga, format_rmc
+from antikol.ingest.replaylog import read_replay_csv, write_replay_csv
 from tests._paths import interleave, reports_from_xy
 
 

@@ -8,8 +8,13 @@ import pytest
 
 import trackmap
 from antikol.cli import main
-from antikol.evaluation import compare
-from antikol.scenarios import SCENARIOS, ScenarioUnavailable, build_scenario, run_scenario
+from antikol.evaluation.scenarios import (
+    SCENARIOS,
+    ScenarioUnavailable,
+    build_scenario,
+    run_scenario,
+)
+from antikol.evaluation.scoring import compare
 from trackmap.synthetic import demo_network
 
 SYNTHETIC = demo_network().build()

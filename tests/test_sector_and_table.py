@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from antikol import VehicleReport
-from antikol.sector import CourseKeeper, SectorRule
+from antikol.analysis.sector import CourseKeeper, SectorRule
 from antikol.table import VehicleTable
 from tests._paths import GDANSK
 

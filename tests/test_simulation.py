@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import trackmap
-from antikol.braking import load_profile, stopping_distance
-from antikol.nmea import read_nmea_file
-from antikol.simulation import (
+from antikol.analysis.braking import load_profile, stopping_distance
+from antikol.ingest.nmea import read_nmea_file
+from antikol.sim.simulation import (
     CSV_HEADER,
     DEFAULT_SPEED_MPS,
     GpsModel,

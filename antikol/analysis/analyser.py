@@ -5,7 +5,7 @@ has ``method='sector'`` and level ``warning`` (the paper's lamp).
 
 With a map (``Analyser(track_map=net)``) it implements the paper's next generation:
 
-1. every vehicle is positioned on the tracks (:mod:`antikol.positioning`);
+1. every vehicle is positioned on the tracks (:mod:`antikol.positioning.matcher`);
 2. the own sensitivity area follows the track ahead up to a horizon from the braking model
    (never shorter than the paper's 300 m unless configured) and splits into one **zone**
    per branch at facing switches; with a known planned route only the routed zone can
@@ -15,7 +15,7 @@ With a map (``Analyser(track_map=net)``) it implements the paper's next generati
    running towards us), ``merge`` (our zones and the other's meet in the fouling area of a
    switch from different branches) and ``crossing`` (both reach the same crossing conflict
    point), the last two only when the arrival windows overlap;
-4. levels follow the braking model (:func:`antikol.braking.classify`);
+4. levels follow the braking model (:func:`antikol.analysis.braking.classify`);
 5. when a match is ambiguous every combination of hypotheses is evaluated and a threat is
    raised when the probability of conflict reaches ``conflict_probability`` (err towards
    warning);
@@ -37,12 +37,13 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import shapely
 
-from antikol import braking
-from antikol.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
-from antikol.braking import BrakingProfile, Level, level_rank
+from antikol.analysis import braking
+from antikol.analysis.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
+from antikol.analysis.braking import BrakingProfile, Level, level_rank
+from antikol.analysis.geometry import closing_speed_mps
+from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
 from antikol.errors import UnknownVehicleError
-from antikol.geometry import closing_speed_mps
-from antikol.positioning import (
+from antikol.positioning.matcher import (
     DiscreteFix,
     FixPoint,
     Positioner,
@@ -50,7 +51,6 @@ from antikol.positioning import (
     TrackPosition,
 )
 from antikol.report import VehicleReport
-from antikol.sector import CourseKeeper, SectorHit, SectorRule
 from antikol.table import TableUpdate, VehicleTable
 
 if TYPE_CHECKING:
@@ -258,7 +258,7 @@ class Analyser:
 
         Rejected frames are counted in :attr:`decoder_stats`; this never raises.
         """
-        from antikol.protocol import StreamDecoder
+        from antikol.ingest.protocol import StreamDecoder
 
         if self._decoder is None:
             self._decoder = StreamDecoder()
@@ -271,7 +271,7 @@ class Analyser:
 
     def feed_nmea(self, line: str | bytes) -> list[TableUpdate]:
         """Feed one NMEA 0183 line of the own receiver (needs ``own_id``)."""
-        from antikol.nmea import NmeaReader
+        from antikol.ingest.nmea import NmeaReader
 
         if self.own_id is None:
             raise ValueError("feed_nmea() needs the analyser's own_id")
@@ -824,4 +824,4 @@ def _more_severe(a: _Candidate | None, b: _Candidate | None) -> _Candidate | Non
     return b if (level_rank(b.level), -b.gap_m) > (level_rank(a.level), -a.gap_m) else a
 
 
-__all__ = ["Analyser", "AnalyserConfig", "Zone", "np"]
+__all__ = ["Analyser", "AnalyserConfig", "Zone"]

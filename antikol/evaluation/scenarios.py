@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from antikol.simulation import (
+from antikol.sim.simulation import (
     GpsModel,
     Route,
     ScriptEvent,

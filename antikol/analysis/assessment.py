@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-from antikol.braking import LEVELS, Level, level_rank, max_level
+from antikol.analysis.braking import LEVELS, Level, level_rank, max_level
 
 ThreatKind = Literal["rear_end", "head_on", "merge", "crossing", "sector"]
 Method = Literal["track", "sector"]

@@ -6,7 +6,7 @@ model, records their true state every time step and turns it into noisy GPS repo
 source of ground truth for tests, benchmarks and comparisons.
 
 >>> import trackmap
->>> from antikol.simulation import Simulator, fleet
+>>> from antikol.sim.simulation import Simulator, fleet
 >>> net = trackmap.load_default()
 >>> trams = fleet(net, 20, 1)  # 20 trams on random main-line routes
 >>> result = Simulator(net, trams, seed=1).run(1800.0)  # doctest: +SKIP
@@ -75,8 +75,8 @@ Stops and events
     stays (an obstacle for others), or with ``exit_at_end`` drives on and leaves. A
     :class:`ScriptEvent` can brake to a standstill with the emergency brake (after the
     profile's emergency build-up time, so the stopping distance equals
-    :func:`antikol.braking.stopping_distance` with ``brake="emergency"`` less its standstill
-    margin), hold the tram, cap its speed or make the driver ignore leaders and conflicts
+    :func:`antikol.analysis.braking.stopping_distance` with ``brake="emergency"`` less its
+    standstill margin), hold the tram, cap its speed or make the driver ignore leaders and conflicts
     (to stage collisions).
 GPS
     See :class:`GpsModel`: white noise plus a Gauss–Markov bias per axis on the antenna
@@ -111,8 +111,8 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from antikol.braking import BrakingProfile, load_profile
-from antikol.nmea import format_gga, format_rmc, format_vtg
+from antikol.analysis.braking import BrakingProfile, load_profile
+from antikol.ingest.nmea import format_gga, format_rmc, format_vtg
 from antikol.report import MAX_ROUTE_EDGES, MAX_VEHICLE_ID_BYTES, BrakeState, VehicleReport
 from trackmap.network import ConflictPoint, Stop, TrackMap
 
@@ -1438,7 +1438,7 @@ class SimulationResult:
         """Write one NMEA log per vehicle, ``<vehicle_id>.nmea``: RMC, VTG, GGA per fix.
 
         The sentence order is a u-blox receiver's. NMEA times are ``epoch_utc_s + t``
-        (UTC, 0.01 s resolution), so :func:`antikol.nmea.read_nmea_file` gives back ``t``
+        (UTC, 0.01 s resolution), so :func:`antikol.ingest.nmea.read_nmea_file` gives back ``t``
         shifted by ``epoch_utc_s`` (it emits the first fix on its RMC, before it has seen
         a GGA, and skips that epoch's VTG and GGA as unpaired). Vehicles without fixes get
         an empty file.

@@ -17,7 +17,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from antikol.evaluation import Comparison
+from antikol.evaluation.scoring import Comparison
 from trackmap.network import TrackMap
 
 

@@ -133,8 +133,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from antikol.analyser import Analyser
-    from antikol.replay import EventWriter, read_nmea_logs, read_replay_csv, replay
+    from antikol.analysis.analyser import Analyser
+    from antikol.evaluation.replay import EventWriter, replay
+    from antikol.ingest.replaylog import read_nmea_logs, read_replay_csv
 
     log = (
         read_nmea_logs(args.log)
@@ -171,7 +172,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _scenario_names(name: str) -> list[str]:
-    from antikol.scenarios import SCENARIOS
+    from antikol.evaluation.scenarios import SCENARIOS
 
     if name == "all":
         return list(SCENARIOS)
@@ -188,7 +189,7 @@ def _params(name: str, args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from antikol.scenarios import build_scenario, run_scenario
+    from antikol.evaluation.scenarios import build_scenario, run_scenario
 
     net = _load_map(args.map)
     if net is None:
@@ -211,9 +212,9 @@ def _simulate(args: argparse.Namespace) -> int:
 def _run_comparisons(
     net: Any, names: list[str], args: argparse.Namespace, figures: Path | None
 ) -> tuple[list[Any], list[str]]:
-    from antikol.evaluation import compare
-    from antikol.figures import comparison_figure
-    from antikol.scenarios import ScenarioUnavailable, build_scenario, run_scenario
+    from antikol.evaluation.figures import comparison_figure
+    from antikol.evaluation.scenarios import ScenarioUnavailable, build_scenario, run_scenario
+    from antikol.evaluation.scoring import compare
 
     done, skipped = [], []
     for name in names:
@@ -235,7 +236,7 @@ def _run_comparisons(
 def _compare(args: argparse.Namespace) -> int:
     import json
 
-    from antikol.evaluation import format_table
+    from antikol.evaluation.scoring import format_table
 
     net = _load_map(args.map)
     if net is None:
@@ -262,7 +263,7 @@ def _demo(args: argparse.Namespace) -> int:
     import time
 
     import trackmap
-    from antikol.evaluation import format_table
+    from antikol.evaluation.scoring import format_table
 
     t0 = time.perf_counter()
     net = trackmap.load_default()
@@ -272,7 +273,7 @@ def _demo(args: argparse.Namespace) -> int:
     )
     args.out.mkdir(parents=True, exist_ok=True)
     (comp,), _ = _run_comparisons(net, ["city"], args, None)
-    from antikol.figures import comparison_figure
+    from antikol.evaluation.figures import comparison_figure
 
     fig = comparison_figure(comp, net, args.out / "city.png")
     (args.out / "city.json").write_text(json.dumps(comp.as_dict(), indent=2))

@@ -14,13 +14,13 @@ Newson & Krumm (2009), as used for train positioning by DLR's RCAS and CTU's sys
 
 The forward algorithm gives each hypothesis its probability; the top ``max_hypotheses``
 survive, so past a switch both branches stay alive until the evidence separates them.
-A Kalman filter (:mod:`antikol.kalman`) along the track fuses the best hypothesis' travelled
-distance with the reported speed; during a GPS outage it dead-reckons along the most
-probable path until its uncertainty or the outage length passes a limit, when the position
-is declared ``lost``. Discrete fixes (balises, loop crossings) at known map positions are
-accepted only inside an acceptance window that grows with the distance since the last
-fix; a fix outside it, or too many expected fixes missed, also makes the position
-``lost`` rather than jumping silently.
+A Kalman filter (:mod:`antikol.positioning.kalman`) along the track fuses the best
+hypothesis' travelled distance with the reported speed; during a GPS outage it
+dead-reckons along the most probable path until its uncertainty or the outage length
+passes a limit, when the position is declared ``lost``. Discrete fixes (balises, loop
+crossings) at known map positions are accepted only inside an acceptance window that
+grows with the distance since the last fix; a fix outside it, or too many expected fixes
+missed, also makes the position ``lost`` rather than jumping silently.
 
 Reports that contradict physics (a jump of hundreds of metres in a second, a speed or an
 acceleration the vehicle cannot reach) are rejected and counted and leave the state
@@ -39,7 +39,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from antikol.kalman import AlongTrackFilter
+from antikol.positioning.kalman import AlongTrackFilter
 from antikol.report import VehicleReport
 from trackmap.network import CandidateBatch, Path, TrackMap
 

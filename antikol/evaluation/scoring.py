@@ -6,11 +6,11 @@ reports. For every ordered pair (own, other) at every analysis time:
 * **warning required** — the other vehicle is on the own vehicle's *actual* future route
   (the route it really drives) within the braking-model distance for that case (except a
   standing own vehicle whose leader pulls away): a
-  leader's rear within :func:`~antikol.braking.rear_end_distance` (moving-leader rule, a
+  leader's rear within :func:`~antikol.analysis.braking.rear_end_distance` (moving-leader rule, a
   leader braking hard counts as standing), an oncoming front within
-  :func:`~antikol.braking.head_on_distance`; or both vehicles really pass the same merge or
+  :func:`~antikol.analysis.braking.head_on_distance`; or both vehicles really pass the same merge or
   crossing conflict point from different tracks, within ``window_slack_s`` of each other,
-  and the own vehicle is within its :func:`~antikol.braking.warning_distance` of the
+  and the own vehicle is within its :func:`~antikol.analysis.braking.warning_distance` of the
   conflict area;
 * **clearly conflict-free** — the other vehicle is not on the own future route within
   ``clear_factor`` x the own horizon (either way round), and the two share no conflict
@@ -42,10 +42,10 @@ from typing import Any
 
 import numpy as np
 
-from antikol import braking
-from antikol.analyser import Analyser
-from antikol.braking import level_rank
-from antikol.simulation import Route, SimulationResult, TramSpec, Truth
+from antikol.analysis import braking
+from antikol.analysis.analyser import Analyser
+from antikol.analysis.braking import level_rank
+from antikol.sim.simulation import Route, SimulationResult, TramSpec, Truth
 from trackmap.network import TrackMap
 
 logger = logging.getLogger(__name__)
@@ -434,7 +434,7 @@ def run_analyser(
     Parameters
     ----------
     make : callable
-        Returns a new :class:`~antikol.analyser.Analyser`.
+        Returns a new :class:`~antikol.analysis.analyser.Analyser`.
     result : SimulationResult
     times : ndarray
         Analysis times, s.
@@ -722,7 +722,7 @@ def positioning_accuracy(
         An estimate counts as on the right track when it lies on the true route within
         this distance of the true antenna position, in the true running direction, m.
     """
-    from antikol.positioning import Positioner
+    from antikol.positioning.matcher import Positioner
 
     specs = {s.vehicle_id: s for s in result.specs}
     pos = Positioner(net, config)

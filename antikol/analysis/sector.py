@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from antikol.geometry import angle_difference_deg, paper_offsets
+from antikol.analysis.geometry import angle_difference_deg, paper_offsets
 from antikol.report import VehicleReport
 
 

@@ -1,0 +1,1 @@
+"""Evaluation tools: scenarios, ground truth, scoring, comparison figures and log replay."""

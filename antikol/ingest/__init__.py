@@ -1,0 +1,43 @@
+"""Inputs of the on-board chain: everything is turned into :class:`~antikol.VehicleReport`.
+
+* :mod:`antikol.ingest.nmea` — the own GPS receiver (NMEA 0183 through pynmeagps);
+* :mod:`antikol.ingest.protocol` — the radio frames of the other vehicles;
+* :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format.
+"""
+
+from antikol.ingest.nmea import NmeaReader, NmeaStats, read_nmea_directory, read_nmea_file
+from antikol.ingest.protocol import (
+    DecoderStats,
+    EncodeError,
+    FrameError,
+    StreamDecoder,
+    decode_frame,
+    encode_report,
+)
+from antikol.ingest.replaylog import (
+    REPLAY_COLUMNS,
+    ReplayLog,
+    RowProblem,
+    read_nmea_logs,
+    read_replay_csv,
+    write_replay_csv,
+)
+
+__all__ = [
+    "REPLAY_COLUMNS",
+    "DecoderStats",
+    "EncodeError",
+    "FrameError",
+    "NmeaReader",
+    "NmeaStats",
+    "ReplayLog",
+    "RowProblem",
+    "StreamDecoder",
+    "decode_frame",
+    "encode_report",
+    "read_nmea_directory",
+    "read_nmea_file",
+    "read_nmea_logs",
+    "read_replay_csv",
+    "write_replay_csv",
+]

@@ -1,0 +1,1 @@
+"""The project's own traffic simulator (routes, driver model, GPS model, true states)."""
