@@ -9,12 +9,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
 
 from antikol.errors import InvalidReportError
-
-BrakeState = Literal["none", "service", "emergency"]
-BRAKE_STATES: tuple[BrakeState, ...] = ("none", "service", "emergency")
+from antikol.kinds import BRAKE_STATES, BrakeState
 
 #: Upper bound on a plausible rail vehicle speed (360 km/h); anything faster is an error.
 MAX_SPEED_MPS = 100.0

@@ -39,10 +39,11 @@ import shapely
 
 from antikol.analysis import braking
 from antikol.analysis.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
-from antikol.analysis.braking import BrakingProfile, Level, level_rank
+from antikol.analysis.braking import BrakingProfile
 from antikol.analysis.geometry import closing_speed_mps
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
 from antikol.errors import UnknownVehicleError
+from antikol.kinds import Level, level_rank
 from antikol.positioning.matcher import (
     DiscreteFix,
     FixPoint,
@@ -52,6 +53,7 @@ from antikol.positioning.matcher import (
 )
 from antikol.report import VehicleReport
 from antikol.table import TableUpdate, VehicleTable
+from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
 
 if TYPE_CHECKING:
     from trackmap.network import Path, TrackMap
@@ -86,12 +88,12 @@ class AnalyserConfig:
         uncertainty of both positions before the level is chosen (err towards warning).
     """
 
-    min_horizon_m: float = 300.0
+    min_horizon_m: float = MIN_HORIZON_M
     conflict_probability: float = 0.2
     max_hypotheses: int = 3
     min_hypothesis_probability: float = 0.01
     window_slack_s: float = 5.0
-    stopped_speed_mps: float = 0.5
+    stopped_speed_mps: float = STANDING_SPEED_MPS
     corridor_half_width_m: float = 1.7
     parallel_distance_m: float = 10.0
     gap_margin_sigmas: float = 2.0
@@ -193,7 +195,7 @@ class Analyser:
         sector: SectorRule | None = None,
         own_id: str | None = None,
         capacity: int | Literal["auto"] | None = "auto",
-        expiry_s: float = 10.0,
+        expiry_s: float = EXPIRY_S,
         profile: BrakingProfile | None = None,
         profiles: Mapping[str, BrakingProfile] | None = None,
         positioning: PositioningConfig | None = None,
@@ -203,7 +205,9 @@ class Analyser:
         self.track_map = track_map
         self.sector = sector if sector is not None else SectorRule()
         self.own_id = own_id
-        table_capacity = (32 if own_id is not None else None) if capacity == "auto" else capacity
+        table_capacity = (
+            (TABLE_CAPACITY if own_id is not None else None) if capacity == "auto" else capacity
+        )
         self.expiry_s = float(expiry_s)
         # Control-room use emulates every vehicle's own unit: a vehicle that falls silent (GPS
         # lost in a tunnel) keeps being assessed on its dead-reckoned position, while the

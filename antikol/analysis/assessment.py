@@ -3,12 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
 
-from antikol.analysis.braking import LEVELS, Level, level_rank, max_level
-
-ThreatKind = Literal["rear_end", "head_on", "merge", "crossing", "sector"]
-Method = Literal["track", "sector"]
+from antikol.kinds import LEVELS, Level, Method, ThreatKind, level_rank, max_level
 
 __all__ = [
     "LEVELS",

@@ -61,17 +61,27 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.errors import InputFileError, ProfileError
-from antikol.report import BRAKE_STATES, BrakeState
+from antikol.kinds import (
+    BRAKE_STATES,
+    GAP_CASES,
+    LEVELS,
+    BrakeState,
+    GapCase,
+    Level,
+    level_rank,
+    max_level,
+)
+from antikol.thresholds import MIN_HORIZON_M
 
 __all__ = [
     "BRAKES",
-    "CONFLICT_KINDS",
+    "GAP_CASES",
     "G_MPS2",
     "INTERVENTIONS",
     "LEVELS",
     "Brake",
     "BrakingProfile",
-    "ConflictKind",
+    "GapCase",
     "Intervention",
     "Level",
     "MovementAuthority",
@@ -103,17 +113,11 @@ __all__ = [
 G_MPS2: Final = 9.80665
 
 Brake = Literal["service", "emergency"]
-ConflictKind = Literal["rear_end", "head_on", "static"]
-Level = Literal["none", "advisory", "warning", "emergency"]
 Intervention = Literal["ok", "service", "emergency"]
 MovementAuthorityKind = Literal["authority", "boundary", "leader_emergency", "keep_distance"]
 
 #: The brakes a distance can be computed for, weakest first.
 BRAKES: Final[tuple[Brake, ...]] = ("service", "emergency")
-#: Conflict kinds understood by :func:`conflict_distance` and :func:`classify`.
-CONFLICT_KINDS: Final[tuple[ConflictKind, ...]] = ("rear_end", "head_on", "static")
-#: Warning levels, lowest first; the index is the rank (see :func:`level_rank`).
-LEVELS: Final[tuple[Level, ...]] = ("none", "advisory", "warning", "emergency")
 #: Supervision outcomes, mildest first.
 INTERVENTIONS: Final[tuple[Intervention, ...]] = ("ok", "service", "emergency")
 
@@ -775,7 +779,7 @@ def conflict_distance(
     v_mps: float,
     profile: BrakingProfile,
     *,
-    kind: ConflictKind = "static",
+    kind: GapCase = "static",
     brake: Brake = "service",
     v_other_mps: float = 0.0,
     other_profile: BrakingProfile | None = None,
@@ -825,7 +829,7 @@ def conflict_distance(
         )
     if kind == "head_on":
         return head_on_distance(v, v_other, profile, other_profile, brake=brake, grade=grade)
-    raise ValueError(f"kind must be one of {CONFLICT_KINDS}, got {kind!r}")
+    raise ValueError(f"kind must be one of {GAP_CASES}, got {kind!r}")
 
 
 def _horizon(v_mps: F, profile: BrakingProfile, grade: float, minimum_m: float) -> F:
@@ -838,7 +842,7 @@ def _horizon(v_mps: F, profile: BrakingProfile, grade: float, minimum_m: float) 
 
 
 def horizon_m(
-    v_mps: F, profile: BrakingProfile, *, grade: float = 0.0, minimum_m: float = 300.0
+    v_mps: F, profile: BrakingProfile, *, grade: float = 0.0, minimum_m: float = MIN_HORIZON_M
 ) -> F:
     """Look-ahead distance of the analyser: warning distance plus margin, floored.
 
@@ -870,52 +874,12 @@ def horizon_m(
 # --------------------------------------------------------------------------------------
 
 
-def level_rank(level: Level) -> int:
-    """Rank of a warning level: 0 for ``"none"`` up to 3 for ``"emergency"``.
-
-    Parameters
-    ----------
-    level : {"none", "advisory", "warning", "emergency"}
-        The level.
-
-    Returns
-    -------
-    int
-        Index of ``level`` in :data:`LEVELS`.
-
-    Raises
-    ------
-    ValueError
-        Unknown level.
-    """
-    try:
-        return LEVELS.index(level)
-    except ValueError:
-        raise ValueError(f"level must be one of {LEVELS}, got {level!r}") from None
-
-
-def max_level(*levels: Level) -> Level:
-    """The most severe of some warning levels (``"none"`` when given none).
-
-    Parameters
-    ----------
-    *levels : {"none", "advisory", "warning", "emergency"}
-        Levels to compare.
-
-    Returns
-    -------
-    str
-        The highest-ranked level.
-    """
-    return LEVELS[max((level_rank(level) for level in levels), default=0)]
-
-
 def classify(
     gap_m: float,
     v_mps: float,
     profile: BrakingProfile,
     *,
-    kind: ConflictKind = "static",
+    kind: GapCase = "static",
     v_other_mps: float = 0.0,
     other_profile: BrakingProfile | None = None,
     leader_braking: BrakeState = "none",
@@ -974,7 +938,7 @@ def classify(
     warning_m = conflict_distance(v_mps, profile, brake="service", **common)
     if horizon_m is None:
         horizon = max(
-            _horizon(float(v_mps), profile, grade, 300.0),
+            _horizon(float(v_mps), profile, grade, MIN_HORIZON_M),
             warning_m + margin_distance(float(v_mps), profile),
         )
     else:

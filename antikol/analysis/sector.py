@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from antikol.analysis.geometry import angle_difference_deg, paper_offsets
 from antikol.report import VehicleReport
+from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,9 +39,9 @@ class SectorRule:
         kept (see :class:`CourseKeeper`), m/s.
     """
 
-    d_col_m: float = 300.0
-    half_angle_deg: float = 15.0
-    min_speed_for_course_mps: float = 1.0
+    d_col_m: float = D_COL_M
+    half_angle_deg: float = HALF_ANGLE_DEG
+    min_speed_for_course_mps: float = COURSE_MIN_SPEED_MPS
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.d_col_m) or self.d_col_m <= 0:
@@ -134,7 +135,7 @@ class CourseKeeper:
         Reports slower than this keep the previously trusted course, m/s.
     """
 
-    min_speed_mps: float = 1.0
+    min_speed_mps: float = COURSE_MIN_SPEED_MPS
     _courses: dict[str, float] = field(default_factory=dict)
 
     def update(self, report: VehicleReport) -> float | None:

@@ -44,15 +44,16 @@ import numpy as np
 
 from antikol.analysis import braking
 from antikol.analysis.analyser import Analyser
-from antikol.analysis.braking import level_rank
+from antikol.kinds import level_rank
 from antikol.sim.simulation import Route, SimulationResult, TramSpec, Truth
+from antikol.thresholds import MIN_HORIZON_M, STANDING_SPEED_MPS
 from trackmap.network import TrackMap
 
 logger = logging.getLogger(__name__)
 
 REQUIRED, NEUTRAL, CLEAR = 2, 1, 0
 #: A vehicle slower than this is standing: a leader pulling away needs no warning, m/s.
-STOPPED_MPS = 0.5
+STOPPED_MPS = STANDING_SPEED_MPS
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,7 +186,7 @@ def ground_truth(
     cycle_s: float = 1.0,
     window_slack_s: float = 5.0,
     clear_factor: float = 1.5,
-    min_horizon_m: float = 300.0,
+    min_horizon_m: float = MIN_HORIZON_M,
     off_map: Iterable[str] = (),
     tolerance_m: float = 2.0,
 ) -> GroundTruth:

@@ -94,6 +94,7 @@ from pynmeagps.nmeahelpers import calc_checksum
 
 from antikol.errors import InputFileError, InvalidReportError, ProtocolError
 from antikol.report import MAX_SPEED_MPS, VehicleReport
+from antikol.thresholds import STANDING_SPEED_MPS
 
 __all__ = [
     "FILE_SUFFIXES",
@@ -122,7 +123,7 @@ GNSS_TALKERS: Final = frozenset({"GP", "GN", "GL", "GA", "GB", "BD", "GQ", "GI"}
 #: File name suffixes read by :func:`read_nmea_directory` (case-insensitive).
 FILE_SUFFIXES: Final = (".nmea", ".txt", ".log")
 #: Default speed below which a missing course is tolerated, m/s.
-STOPPED_SPEED_MPS: Final = 0.5
+STOPPED_SPEED_MPS: Final = STANDING_SPEED_MPS
 
 #: Why a line or sentence was skipped (keys of :attr:`NmeaStats.skipped`).
 SKIP_REASONS: Final[dict[str, str]] = {

@@ -35,17 +35,18 @@ import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
+from antikol.kinds import PositionStatus
 from antikol.positioning.kalman import AlongTrackFilter
 from antikol.report import VehicleReport
+from antikol.thresholds import FILTER_NIS_GATE, MAX_PATHS_SEARCH
 from trackmap.network import CandidateBatch, Path, TrackMap
 
 logger = logging.getLogger(__name__)
 
-PositionStatus = Literal["confident", "ambiguous", "lost", "unmatched"]
 _NEG_INF = -math.inf
 
 
@@ -571,7 +572,7 @@ class Positioner:
         else:
             st.filter.predict(report.t)
             nis = st.filter.update(best.progress_m, report.speed_mps, s_std_m=self._sigma(report))
-            if abs(nis) > 6.0:
+            if abs(nis) > FILTER_NIS_GATE:
                 st.filter.reset(report.t, best.progress_m, report.speed_mps)
                 self.stats["filter_reset"] += 1
             if parents is not None:
@@ -672,7 +673,12 @@ class Positioner:
         for i, h in enumerate(prev):
             log_prior = math.log(max(h.probability, 1e-300))
             ahead = self.net.paths_ahead(
-                h.edge_id, h.offset_m, h.direction, reach, respect_direction=False, max_paths=16
+                h.edge_id,
+                h.offset_m,
+                h.direction,
+                reach,
+                respect_direction=False,
+                max_paths=MAX_PATHS_SEARCH,
             )
             behind = self.net.paths_ahead(
                 h.edge_id,
@@ -680,7 +686,7 @@ class Positioner:
                 -h.direction,
                 c.backward_m,
                 respect_direction=False,
-                max_paths=16,
+                max_paths=MAX_PATHS_SEARCH,
             )
             for j, (e, d, off, _emit, _) in enumerate(states):
                 dist, path = _route_offset(ahead, behind, e, d, off, travelled)
@@ -745,7 +751,7 @@ class Positioner:
                 h.direction,
                 distance_m,
                 respect_direction=not h.wrong_way,
-                max_paths=16,
+                max_paths=MAX_PATHS_SEARCH,
             )
             if not paths:
                 return h.edge_id, h.offset_m, h.direction
@@ -758,7 +764,7 @@ class Positioner:
             -h.direction,
             -distance_m,
             respect_direction=False,
-            max_paths=16,
+            max_paths=MAX_PATHS_SEARCH,
         )
         last = _preferred_path(paths, None).steps[-1]
         return last.edge_id, last.exit_offset_m, -last.direction
