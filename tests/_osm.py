@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from trackmap.crs import LocalFrame
+from trackmap import LocalFrame
 
 FRAME = LocalFrame.centred_on(19.94, 50.06)
 

@@ -8,7 +8,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from antikol import VehicleReport
-from trackmap.crs import LocalFrame
+from trackmap import LocalFrame
 
 #: A frame centred in Gdańsk, where the paper's field tests were driven.
 GDANSK = LocalFrame.centred_on(18.6359, 54.3902)

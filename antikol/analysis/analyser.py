@@ -56,7 +56,7 @@ from antikol.table import TableUpdate, VehicleTable
 from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
 
 if TYPE_CHECKING:
-    from trackmap.network import Path, TrackMap
+    from trackmap import Path, TrackMap
 
 logger = logging.getLogger(__name__)
 

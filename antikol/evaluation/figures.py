@@ -18,7 +18,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from antikol.evaluation.scoring import Comparison
-from trackmap.network import TrackMap
+from trackmap import TrackMap
 
 
 def comparison_figure(

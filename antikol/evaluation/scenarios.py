@@ -43,7 +43,7 @@ from antikol.sim.simulation import (
     TramSpec,
     fleet,
 )
-from trackmap.network import TrackMap
+from trackmap import TrackMap
 
 logger = logging.getLogger(__name__)
 

@@ -47,7 +47,7 @@ from antikol.analysis.analyser import Analyser
 from antikol.kinds import level_rank
 from antikol.sim.simulation import Route, SimulationResult, TramSpec, Truth
 from antikol.thresholds import MIN_HORIZON_M, STANDING_SPEED_MPS
-from trackmap.network import TrackMap
+from trackmap import TrackMap
 
 logger = logging.getLogger(__name__)
 

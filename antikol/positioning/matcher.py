@@ -43,7 +43,7 @@ from antikol.kinds import PositionStatus
 from antikol.positioning.kalman import AlongTrackFilter
 from antikol.report import VehicleReport
 from antikol.thresholds import FILTER_NIS_GATE, MAX_PATHS_SEARCH
-from trackmap.network import CandidateBatch, Path, TrackMap
+from trackmap import CandidateBatch, Path, TrackMap
 
 logger = logging.getLogger(__name__)
 

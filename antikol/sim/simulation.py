@@ -114,7 +114,7 @@ import shapely
 from antikol.analysis.braking import BrakingProfile, load_profile
 from antikol.ingest.nmea import format_gga, format_rmc, format_vtg
 from antikol.report import MAX_ROUTE_EDGES, MAX_VEHICLE_ID_BYTES, BrakeState, VehicleReport
-from trackmap.network import ConflictPoint, Stop, TrackMap
+from trackmap import ConflictPoint, Stop, TrackMap
 
 __all__ = [
     "CSV_EXTRA_COLUMNS",
