@@ -51,3 +51,27 @@ class UnknownVehicleError(AntikolError, KeyError):
 
     def __str__(self) -> str:  # KeyError quotes its argument; keep the sentence readable
         return str(self.args[0]) if self.args else "unknown vehicle"
+
+
+class InvalidArgumentError(AntikolError, ValueError):
+    """A function argument is outside its valid domain (the message names it).
+
+    Attributes
+    ----------
+    name : str
+        Name of the argument.
+    value : object
+        The rejected value.
+    """
+
+    def __init__(self, name: str, value: object, reason: str) -> None:
+        self.name = name
+        self.value = value
+        self.reason = reason
+        super().__init__(f"{name} must be valid, got {_short_repr(value)}: {reason}")
+
+
+def _short_repr(value: object, limit: int = 80) -> str:
+    """repr() cut to ``limit`` characters: error messages must not echo huge inputs."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -31,6 +31,7 @@ from typing import Literal
 import numpy as np
 
 from antikol.analysis.geometry import paper_offsets
+from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 
 logger = logging.getLogger(__name__)
@@ -81,9 +82,9 @@ class VehicleTable:
         self, *, capacity: int | None = 32, expiry_s: float = 10.0, own_id: str | None = None
     ) -> None:
         if capacity is not None and capacity < 1:
-            raise ValueError(f"capacity must be >= 1 or None, got {capacity}")
+            raise InvalidArgumentError("capacity", capacity, "must be >= 1 or None")
         if not np.isfinite(expiry_s) or expiry_s <= 0:
-            raise ValueError(f"expiry_s must be a positive number of seconds, got {expiry_s}")
+            raise InvalidArgumentError("expiry_s", expiry_s, "must be a positive number of seconds")
         self.capacity = capacity
         self.expiry_s = float(expiry_s)
         self.own_id = own_id
@@ -134,12 +135,14 @@ class VehicleTable:
         Returns
         -------
         list of str
-            Ids of the removed vehicles.
+            Ids of the removed vehicles (never the own vehicle).
         """
         if now is not None and now > self._clock:
             self._clock = float(now)
         limit = self._clock - self.expiry_s
-        gone = [vid for vid, r in self._reports.items() if r.t < limit]
+        # the own vehicle keeps its slot through an outage of its own GPS: the unit must go
+        # on assessing (on its dead-reckoned position) rather than forget itself
+        gone = [vid for vid, r in self._reports.items() if r.t < limit and vid != self.own_id]
         for vid in gone:
             del self._reports[vid]
             self.stats["expired"] += 1

@@ -22,14 +22,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from antikol.analysis.braking import (
-    emergency_distance,
-    load_profile,
-    permitted_speed,
-    permitted_speed_curve,
-    stopping_distance,
-    warning_distance,
-)
+from antikol.analysis.braking import emergency_distance, stopping_distance, warning_distance
+from antikol.analysis.profiles import load_profile
+from antikol.atp import permitted_speed, permitted_speed_curve
 
 KMH_PER_MPS = 3.6
 

@@ -13,33 +13,30 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from antikol.analysis.braking import (
-    G_MPS2,
-    LEVELS,
-    BrakingProfile,
-    MovementAuthority,
     classify,
     conflict_distance,
     effective_deceleration,
     emergency_distance,
     head_on_distance,
     horizon_m,
-    level_rank,
-    load_profile,
     margin_distance,
-    max_level,
-    movement_authority,
-    permitted_speed,
-    permitted_speed_curve,
-    profile_names,
     reaction_distance,
     rear_end_distance,
     static_obstacle_distance,
     stopping_distance,
-    supervise,
     time_to_collision,
     warning_distance,
 )
+from antikol.analysis.profiles import G_MPS2, BrakingProfile, load_profile, profile_names
+from antikol.atp import (
+    MovementAuthority,
+    movement_authority,
+    permitted_speed,
+    permitted_speed_curve,
+    supervise,
+)
 from antikol.errors import InputFileError, ProfileError
+from antikol.kinds import LEVELS, level_rank, max_level
 
 TRAM = BrakingProfile()
 SHIPPED = {name: load_profile(name) for name in profile_names()}

@@ -123,3 +123,26 @@ def test_table_rejects_bad_configuration():
         VehicleTable(capacity=0)
     with pytest.raises(ValueError):
         VehicleTable(expiry_s=-1)
+
+
+def test_table_never_expires_its_own_vehicle():
+    table = VehicleTable(capacity=32, expiry_s=10.0, own_id="A")
+    table.update(at("A", 0, 0, t=0.0))
+    table.update(at("B", 0, 50, t=0.0))
+    # own GPS silent for 30 s while B keeps reporting: B stays, and so does A
+    for t in range(1, 31):
+        table.update(at("B", 0, 50 + t, t=float(t)))
+    assert "A" in table and "B" in table
+    assert table.expire(100.0) == ["B"]
+    assert "A" in table
+
+
+def test_own_vehicle_is_still_assessed_after_an_own_gps_outage():
+    from antikol import Analyser
+
+    an = Analyser(own_id="A")
+    an.update(at("A", 0, 0, t=0.0))
+    for t in range(0, 20):
+        an.update(at("B", 0, 100, t=float(t), speed=0.0))
+    a = an.assess()  # raised UnknownVehicleError when the table dropped its own vehicle
+    assert a.own_id == "A"

@@ -421,18 +421,8 @@ class Analyser:
 
     # -- building blocks -----------------------------------------------------------------
     def _expire(self, t: float | None) -> None:
-        own = self.own_id
-        if own is not None and own in self.table:
-            # the own vehicle is never expired: keep its report while others age out
-            saved = self.table.get(own)
-            gone = self.table.expire(t)
-            if own in gone and saved is not None:
-                self.table._reports[own] = saved
-                gone.remove(own)
-        else:
-            gone = self.table.expire(t)
-        for g in gone:
-            self._forget(g)
+        for gone in self.table.expire(t):
+            self._forget(gone)
 
     def _profile(self, vid: str) -> BrakingProfile:
         return self.profiles.get(vid, self.profile)

@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.analysis.geometry import angle_difference_deg, paper_offsets
+from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
 
@@ -45,11 +46,13 @@ class SectorRule:
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.d_col_m) or self.d_col_m <= 0:
-            raise ValueError(f"d_col_m must be a positive distance in metres, got {self.d_col_m}")
+            raise InvalidArgumentError("d_col_m", self.d_col_m, "must be a positive distance, m")
         if not 0 < self.half_angle_deg <= 180:
-            raise ValueError(f"half_angle_deg must be in (0, 180], got {self.half_angle_deg}")
+            raise InvalidArgumentError("half_angle_deg", self.half_angle_deg, "must be in (0, 180]")
         if self.min_speed_for_course_mps < 0:
-            raise ValueError("min_speed_for_course_mps must be >= 0")
+            raise InvalidArgumentError(
+                "min_speed_for_course_mps", self.min_speed_for_course_mps, "must be >= 0 m/s"
+            )
 
     def inside(
         self, distance_m: npt.ArrayLike, bearing_deg: npt.ArrayLike, course_deg: float
