@@ -84,7 +84,14 @@ class VehicleReport:
     hdop : float, optional
         Horizontal dilution of precision of the fix (GGA).
     fix_quality : int, optional
-        GGA fix quality indicator (0 invalid, 1 GPS, 2 DGPS, 4 RTK fixed, ...).
+        GGA fix quality indicator (0 invalid, 1 GPS, 2 DGPS, 4 RTK fixed, ...). ``0`` means
+        the report carries no position fix: ``lat``/``lon`` are the last known position
+        and are not used as a measurement (a tunnel); with ``odometer_m`` the vehicle is
+        dead-reckoned along the track.
+    odometer_m : float, optional
+        Distance the vehicle has travelled, m, from any origin (its odometer or the
+        operator feed's travelled distance); it never decreases between reports of one
+        vehicle. Positioning uses its increments as the distance travelled.
 
     Raises
     ------
@@ -106,6 +113,7 @@ class VehicleReport:
     seq: int | None = None
     hdop: float | None = None
     fix_quality: int | None = None
+    odometer_m: float | None = None
 
     def __post_init__(self) -> None:
         _check_vehicle_id(self.vehicle_id)
@@ -174,6 +182,10 @@ class VehicleReport:
             or not 0 <= self.fix_quality <= 9
         ):
             raise InvalidReportError("fix_quality", self.fix_quality, "must be an int 0..9")
+        if self.odometer_m is not None:
+            _require_finite("odometer_m", self.odometer_m)
+            if self.odometer_m < 0.0:
+                raise InvalidReportError("odometer_m", self.odometer_m, "negative")
 
     @property
     def course_rad(self) -> float:

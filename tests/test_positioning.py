@@ -95,10 +95,11 @@ def test_both_branches_stay_alive_past_a_switch_until_separated(tmp_path):
     out = drive(pos, reports_along("V", branch_pts, start_m=170.0, speed_mps=6.0, t=t, frame=FRAME))
     branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
     straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
+    # just past the switch: beyond the node itself (where every branch is the same place)
     just_past = next(
         p
         for p in out
-        if p.offset_m is not None and p.edge_id in (branch, straight) and p.offset_m < 6.0
+        if p.offset_m is not None and p.edge_id in (branch, straight) and 3.0 < p.offset_m < 10.0
     )
     alive = {h.edge_id for h in just_past.hypotheses}
     assert {branch, straight} <= alive and just_past.status == "ambiguous"

@@ -2,25 +2,30 @@
 
 For every vehicle the :class:`Positioner` keeps a small set of hypotheses over
 (edge, running direction, offset) — an online hidden Markov model in the style of
-Newson & Krumm (2009), as used for train positioning by DLR's RCAS and CTU's systems:
+Newson & Krumm (2009), as used for train positioning by DLR's RCAS (Heirich 2016):
 
-* **emission** — the lateral distance of the fix from the track (Gaussian, sigma
-  ``gps_sigma_m``) and, when moving, the agreement of the reported course with the track
-  heading in that running direction (a Gaussian with a uniform floor so that an odd course
-  cannot veto the truth); running against a one-way track costs a prior penalty;
-* **transition** — the along-track route distance between successive states, through
-  physical moves only (no turning at a diamond, no reversing through a switch), compared
-  with the distance travelled ``speed x dt`` (exponential, scale ``transition_beta_m``).
+* **emission** — the lateral offset of the fix from the track, explained by a slowly varying
+  GPS **bias** that every hypothesis estimates for itself (:mod:`antikol.positioning.kalman`)
+  plus white noise with a heavy-tailed floor; and, when moving, the agreement of the course
+  over ground with the track heading in that running direction;
+* **transition** — the along-track distance between successive states over physical moves
+  (precomputed, :mod:`antikol.positioning.reach`), compared with the distance travelled
+  (the odometer when the report has one, else ``speed x dt``);
+* **wrong-way running** is a mode that must be entered (a one-off prior cost) and kept
+  (a cost per fix): it wins only on sustained, consistent evidence, and only where the
+  track's topology lets the vehicle get there.
 
 The forward algorithm gives each hypothesis its probability; the top ``max_hypotheses``
-survive, so past a switch both branches stay alive until the evidence separates them.
-A Kalman filter (:mod:`antikol.positioning.kalman`) along the track fuses the best
-hypothesis' travelled distance with the reported speed; during a GPS outage it
-dead-reckons along the most probable path until its uncertainty or the outage length
-passes a limit, when the position is declared ``lost``. Discrete fixes (balises, loop
-crossings) at known map positions are accepted only inside an acceptance window that
-grows with the distance since the last fix; a fix outside it, or too many expected fixes
-missed, also makes the position ``lost`` rather than jumping silently.
+survive, so past a switch both branches stay alive until the evidence separates them. The
+reported position follows one **lineage**: it moves to a hypothesis that does not descend
+from the previous one only when that hypothesis is decisive (``switch_probability``), so
+successive positions are connected by the track. An along-track Kalman filter fuses the
+lineage's travelled distance with the reported speed (or the odometer); during a GPS outage
+it dead-reckons along the most probable path until its uncertainty, the outage length or
+the distance run on the odometer passes a limit, when the position is declared ``lost``.
+
+Everything per report is vectorised over the fleet: :meth:`Positioner.update_many` handles
+one cycle of a whole city in a few array operations.
 
 Reports that contradict physics (a jump of hundreds of metres in a second, a speed or an
 acceleration the vehicle cannot reach) are rejected and counted and leave the state
@@ -38,226 +43,48 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from antikol.kinds import PositionStatus
-from antikol.positioning.kalman import AlongTrackFilter
+from antikol.positioning.config import PositioningConfig
+from antikol.positioning.fixes import DiscreteFixes
+from antikol.positioning.kalman import (
+    BiasState,
+    TrackFilterState,
+    bias_predict,
+    bias_update,
+    track_estimate,
+    track_odometer_step,
+    track_predict,
+    track_update,
+)
+from antikol.positioning.reach import ReachTable, state_id
+from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.report import VehicleReport
-from antikol.thresholds import FILTER_NIS_GATE, MAX_PATHS_SEARCH
-from trackmap import CandidateBatch, Path, TrackMap
+from antikol.thresholds import MAX_PATHS_SEARCH
+from trackmap import Path, TrackMap
+
+__all__ = [
+    "DiscreteFix",
+    "FixPoint",
+    "Hypothesis",
+    "Positioner",
+    "PositioningConfig",
+    "TrackPosition",
+]
 
 logger = logging.getLogger(__name__)
 
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 _NEG_INF = -math.inf
-
-
-@dataclass(frozen=True, slots=True)
-class PositioningConfig:
-    """Parameters of the positioning filter (SI units).
-
-    Attributes
-    ----------
-    gps_sigma_m : float
-        Standard deviation of a GPS fix per axis, m (scaled up by HDOP above 1).
-    search_radius_m : float
-        Candidate tracks are searched within this radius, m.
-    max_hypotheses : int
-        Hypotheses kept per vehicle.
-    min_probability : float
-        Hypotheses below this probability are dropped.
-    course_sigma_deg, course_noise_deg_mps : float
-        Course agreement scale: ``hypot(course_sigma_deg, course_noise_deg_mps / speed)``
-        degrees (track-heading mismatch plus a Doppler course error that shrinks with
-        speed).
-    course_outlier_weight : float
-        Weight of the uniform floor of the course likelihood.
-    min_speed_for_course_mps : float
-        Below this speed the course carries no weight, m/s.
-    wrong_way_log_prior : float
-        Log-likelihood penalty of running against a one-way track.
-    transition_beta_m : float
-        Scale of the transition likelihood, m (plus 10 % of the distance travelled).
-    backward_m : float
-        How far behind the previous state a new fix may project (GPS noise), m.
-    confidence : float
-        A match is ``confident`` when the best place holds at least this probability.
-    max_speed_mps, max_accel_mps2 : float
-        Physical limits used to reject impossible reports.
-    jump_margin_m : float
-        Extra displacement allowed between two fixes beyond what speed permits, m.
-    max_rejections_in_row : int
-        After this many rejected reports in a row, the vehicle is re-initialised.
-    dead_reckoning_s : float
-        Longest outage bridged by dead reckoning before the position is lost, s.
-    lost_sigma_m : float
-        Along-track uncertainty at which a dead-reckoned position is lost, m.
-    reset_gap_s : float
-        A gap between reports longer than this restarts the filters, s.
-    accel_sigma_mps2, speed_sigma_mps : float
-        Kalman filter process noise and reported-speed noise.
-    fix_window_base_m, fix_window_fraction : float
-        Acceptance window of a discrete fix: base + fraction x distance since the last fix.
-    fix_sigma_m : float
-        Accuracy of a discrete fix, m.
-    max_missed_fixes : int
-        Expected fixes that may be missed in a row before the position is lost.
-    relocalise_after : int
-        A lost vehicle is trusted again after this many confident GPS matches in a row.
-    reversal_log_prior : float
-        Log-probability that a standing vehicle changes its running direction between two
-        fixes (bidirectional trams at termini); small, because at a standstill nothing
-        else tells the directions apart and the alternative would slowly gain weight.
-    standstill_distance_m, standstill_evidence_weight : float
-        While the vehicle moves less than ``standstill_distance_m`` between fixes, the
-        emission log-likelihood is scaled by ``standstill_evidence_weight``: GPS errors are
-        correlated in time, so the fixes of a standing vehicle repeat rather than add
-        evidence.
-    """
-
-    gps_sigma_m: float = 4.0
-    search_radius_m: float = 25.0
-    max_hypotheses: int = 8
-    min_probability: float = 1e-4
-    course_sigma_deg: float = 6.0
-    course_noise_deg_mps: float = 20.0
-    course_outlier_weight: float = 0.02
-    min_speed_for_course_mps: float = 2.0
-    wrong_way_log_prior: float = math.log(0.02)
-    transition_beta_m: float = 6.0
-    backward_m: float = 15.0
-    confidence: float = 0.8
-    max_speed_mps: float = 30.0
-    max_accel_mps2: float = 3.5
-    jump_margin_m: float = 30.0
-    max_rejections_in_row: int = 3
-    dead_reckoning_s: float = 30.0
-    lost_sigma_m: float = 60.0
-    reset_gap_s: float = 30.0
-    accel_sigma_mps2: float = 0.6
-    speed_sigma_mps: float = 0.3
-    fix_window_base_m: float = 2.0
-    fix_window_fraction: float = 0.02
-    fix_sigma_m: float = 0.5
-    max_missed_fixes: int = 2
-    relocalise_after: int = 5
-    reversal_log_prior: float = math.log(1e-4)
-    standstill_distance_m: float = 1.0
-    standstill_evidence_weight: float = 0.2
-
-
-@dataclass(frozen=True, slots=True)
-class Hypothesis:
-    """One place a vehicle may be.
-
-    Attributes
-    ----------
-    edge_id : int
-    direction : int
-        +1 along the edge's vertices, -1 against them.
-    offset_m : float
-        Projection of the fix on the edge, m from its first vertex.
-    probability : float
-    progress_m : float
-        Distance travelled along this hypothesis' history, m (the Kalman filter's frame).
-    wrong_way : bool
-        Running against the edge's permitted direction.
-    """
-
-    edge_id: int
-    direction: int
-    offset_m: float
-    probability: float
-    progress_m: float
-    wrong_way: bool = False
-
-
-@dataclass(frozen=True, slots=True)
-class TrackPosition:
-    """Where a vehicle is on the network.
-
-    Attributes
-    ----------
-    vehicle_id : str
-    t : float
-        Time of the estimate, s (later than the last report when dead-reckoned).
-    status : str
-        ``confident``, ``ambiguous`` (several places plausible), ``lost`` (dead reckoning
-        exhausted, or contradicted by a discrete fix) or ``unmatched`` (no track nearby).
-    edge_id, direction, offset_m
-        The most probable track position (None when unmatched).
-    lon, lat : float
-        Degrees: the filtered track position, or the raw fix when unmatched.
-    heading_deg : float or None
-        True heading of travel on the track, degrees.
-    speed_mps : float
-        Filtered speed, m/s.
-    probability : float
-        Probability of the most probable place (0 when unmatched).
-    sigma_m : float or None
-        Along-track one-sigma uncertainty, m.
-    wrong_way : bool
-        The vehicle runs against the track's permitted direction.
-    hypotheses : tuple of Hypothesis
-        Every hypothesis kept, most probable first.
-    dead_reckoned_s : float
-        Time since the last position fix, s (0 at a fix).
-    """
-
-    vehicle_id: str
-    t: float
-    status: PositionStatus
-    edge_id: int | None
-    direction: int | None
-    offset_m: float | None
-    lon: float
-    lat: float
-    heading_deg: float | None
-    speed_mps: float
-    probability: float
-    sigma_m: float | None
-    wrong_way: bool = False
-    hypotheses: tuple[Hypothesis, ...] = ()
-    dead_reckoned_s: float = 0.0
-
-    @property
-    def matched(self) -> bool:
-        """True when confident or ambiguous (usable for track-based analysis)."""
-        return self.status in ("confident", "ambiguous")
-
-
-@dataclass(frozen=True, slots=True)
-class FixPoint:
-    """A discrete position reference on the map (a balise or a loop crossing)."""
-
-    fix_id: str
-    edge_id: int
-    offset_m: float
-
-
-@dataclass(frozen=True, slots=True)
-class DiscreteFix:
-    """A vehicle passing a :class:`FixPoint` at time ``t`` (s)."""
-
-    t: float
-    edge_id: int
-    offset_m: float
-    fix_id: str | None = None
-
-
-@dataclass
-class _VehicleState:
-    filter: AlongTrackFilter
-    hyps: list[Hypothesis] = field(default_factory=list)
-    last: VehicleReport | None = None
-    last_xy: tuple[float, float] | None = None
-    z_last: float = 0.0
-    rejected_in_row: int = 0
-    lost: str | None = None
-    confident_in_row: int = 0
-    last_fix_s: float | None = None
-    missed_fixes: int = 0
-    expected_fixes: list[tuple[str, float]] = field(default_factory=list)
-    unmatched: bool = False
-    output: TrackPosition | None = None
+_LOG_2PI = math.log(2.0 * math.pi)
+#: A matched along-track position is as good as the GPS error along the track, m.
+_ALONG_SIGMA_FACTOR = 1.0
+#: Hypotheses this close (m) across a plain node are the same place.
+_SAME_PLACE_M = 3.0
+#: A fix may lie this far beyond an edge's end (along it) and still be a candidate of it, m.
+_END_OVERSHOOT_M = 2.0
 
 
 class Positioner:
@@ -283,13 +110,28 @@ class Positioner:
     ) -> None:
         self.net = track_map
         self.config = config or PositioningConfig()
-        self._states: dict[str, _VehicleState] = {}
+        self.reach = ReachTable.for_map(track_map, reach_m=self.config.reach_m)
         self.stats: Counter[str] = Counter()
-        self._fix_by_edge: dict[int, list[tuple[float, str]]] = {}
-        for fp in fix_points:
-            self.net.edge(fp.edge_id)
-            self._fix_by_edge.setdefault(fp.edge_id, []).append((fp.offset_m, fp.fix_id))
-        self._fix_equipped = None if fix_equipped is None else set(fix_equipped)
+        self.fixes = DiscreteFixes(track_map, self.config, fix_points, fix_equipped)
+        self._k = self.config.max_hypotheses
+        self._row: dict[str, int] = {}
+        self._f = _Fleet(self._k)
+        self._f.grow(64)
+        self._free: list[int] = list(range(63, -1, -1))
+        self._cache: dict[str, TrackPosition] = {}
+
+    # -- fleet storage -------------------------------------------------------------------
+    def _row_of(self, vehicle_id: str) -> int:
+        row = self._row.get(vehicle_id)
+        if row is None:
+            if not self._free:
+                start = len(self._f.t)
+                self._f.grow(max(64, 2 * start))
+                self._free.extend(range(len(self._f.t) - 1, start - 1, -1))
+            row = self._free.pop()
+            self._row[vehicle_id] = row
+            self._f.clear(row)
+        return row
 
     # -- public API ----------------------------------------------------------------------
     def update(self, report: VehicleReport) -> TrackPosition:
@@ -304,38 +146,47 @@ class Positioner:
         TrackPosition
             The vehicle's position after the report (unchanged if the report was rejected).
         """
-        x, y = self.net.to_local(report.lon, report.lat)
-        batch = self.net.candidates_batch_xy(np.array([x]), np.array([y]), self._radius(report))
-        return self._update(report, (x, y), batch, np.arange(len(batch)))
+        self.update_many([report], outputs=False)
+        out = self.position(report.vehicle_id)
+        if out is None:  # pragma: no cover - a fused report always leaves a state
+            raise RuntimeError(f"no state for {report.vehicle_id!r} after an update")
+        return out
 
-    def update_many(self, reports: Sequence[VehicleReport]) -> list[TrackPosition]:
-        """Fuse reports of many vehicles with one vectorised candidate search.
+    def update_many(
+        self, reports: Sequence[VehicleReport], *, outputs: bool = True
+    ) -> list[TrackPosition]:
+        """Fuse reports of many vehicles at once (one analysis cycle of a fleet).
 
         Parameters
         ----------
         reports : sequence of VehicleReport
-            At most one report per vehicle is typical (one cycle); several are processed in
-            order.
+            One report per vehicle is typical (one cycle); several reports of one vehicle
+            are processed in their order.
+        outputs : bool
+            Return the positions (skip it when they are read later anyway).
 
         Returns
         -------
         list of TrackPosition
-            In the order of ``reports``.
+            In the order of ``reports`` (empty when ``outputs`` is False).
         """
-        if not reports:
+        seen: Counter[str] = Counter()
+        passes: list[list[VehicleReport]] = []
+        for r in reports:
+            k = seen[r.vehicle_id]
+            seen[r.vehicle_id] += 1
+            if k == len(passes):
+                passes.append([])
+            passes[k].append(r)
+        for batch in passes:
+            self._update_pass(batch)
+        if not outputs:
             return []
-        lon = np.fromiter((r.lon for r in reports), float, len(reports))
-        lat = np.fromiter((r.lat for r in reports), float, len(reports))
-        xs, ys = self.net.to_local(lon, lat)
-        radius = max(self._radius(r) for r in reports)
-        batch = self.net.candidates_batch_xy(np.atleast_1d(xs), np.atleast_1d(ys), radius)
-        order = np.argsort(batch.point, kind="stable")
-        bounds = np.searchsorted(batch.point[order], np.arange(len(reports) + 1))
         out = []
-        for i, r in enumerate(reports):
-            rows = order[bounds[i] : bounds[i + 1]]
-            rows = rows[batch.distance_m[rows] <= self._radius(r)]
-            out.append(self._update(r, (float(xs[i]), float(ys[i])), batch, rows))
+        for r in reports:
+            p = self.position(r.vehicle_id)
+            if p is not None:
+                out.append(p)
         return out
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
@@ -352,442 +203,567 @@ class Positioner:
         TrackPosition or None
             None for a vehicle never seen.
         """
-        st = self._states.get(vehicle_id)
-        if st is None or st.last is None:
+        row = self._row.get(vehicle_id)
+        if row is None:
             return None
-        when = st.last.t if t is None else max(t, st.last.t)
-        if st.output is not None and st.output.t == when:
-            return st.output
-        st.output = self._output(vehicle_id, st, when)
-        return st.output
+        last = self._f.last[row]
+        if last is None:
+            return None
+        when = last.t if t is None else max(float(t), last.t)
+        cached = self._cache.get(vehicle_id)
+        if cached is not None and cached.t == when:
+            return cached
+        out = self._output(vehicle_id, row, when)
+        self._cache[vehicle_id] = out
+        return out
 
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle's state (it left the vehicle table)."""
-        self._states.pop(vehicle_id, None)
+        row = self._row.pop(vehicle_id, None)
+        self._cache.pop(vehicle_id, None)
+        self.fixes.forget(vehicle_id)
+        if row is not None:
+            self._f.clear(row)
+            self._free.append(row)
 
     def vehicles(self) -> list[str]:
         """Ids of the vehicles with a state."""
-        return list(self._states)
+        return list(self._row)
 
-    def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:
-        """Apply a discrete position fix (a balise or loop crossing).
+    def hypotheses(self, vehicle_id: str) -> tuple[Hypothesis, ...]:
+        """The hypotheses kept for a vehicle (reported lineage first)."""
+        row = self._row.get(vehicle_id)
+        return () if row is None else self._hypotheses(row)
 
-        A fix is accepted only when it lies within the acceptance window around the
-        predicted position, ``fix_window_base_m + fix_window_fraction x distance since the
-        last accepted fix``. An accepted fix resets the along-track error and pins the
-        vehicle to the fix's track; a fix outside the window makes the position ``lost``.
-
-        Returns
-        -------
-        TrackPosition or None
-            The new position (None for an unknown vehicle).
-        """
-        st = self._states.get(vehicle_id)
-        if st is not None:
-            st.output = None
-        if st is None or st.last is None or not st.hyps or not st.filter.initialised:
-            self.stats["fix_unusable"] += 1
-            return self.position(vehicle_id)
-        self.net.edge(fix.edge_id)
-        est = st.filter.estimate(fix.t)
-        best = st.hyps[0]
-        pred_edge, pred_off, pred_dir = self._advance(best, est.s_m - st.z_last, st.last)
-        travelled = est.s_m - (st.last_fix_s if st.last_fix_s is not None else est.s_m)
-        window = self.config.fix_window_base_m + self.config.fix_window_fraction * abs(travelled)
-        if st.last_fix_s is None:
-            window = max(window, 3.0 * self.config.gps_sigma_m + est.s_std_m)
-        delta = self._signed_track_distance(
-            (pred_edge, pred_off, pred_dir), (fix.edge_id, fix.offset_m), window + 5.0
-        )
-        if delta is None or abs(delta) > window:
-            st.lost = "fix_outside_window"
-            st.confident_in_row = 0
-            self.stats["fix_rejected"] += 1
-            logger.info(
-                "%s: fix %s at edge %d/%.1f m is %s from the prediction (window %.1f m): lost",
-                vehicle_id,
-                fix.fix_id,
-                fix.edge_id,
-                fix.offset_m,
-                "unreachable" if delta is None else f"{delta:+.1f} m",
-                window,
-            )
-            return self.position(vehicle_id, fix.t)
-        s_fix = est.s_m + delta
-        # the fix is far more precise than the track so far: restart the along-track error
-        st.filter.reset(fix.t, s_fix, est.v_mps, s_std_m=self.config.fix_sigma_m)
-        st.hyps = [
-            Hypothesis(
-                fix.edge_id,
-                pred_dir,
-                fix.offset_m,
-                1.0,
-                s_fix,
-                wrong_way=not self.net.edges[fix.edge_id].allows(pred_dir),
-            )
-        ]
-        st.z_last = s_fix
-        st.last_fix_s = s_fix
-        st.missed_fixes = 0
-        st.expected_fixes = [
-            (fid, s) for fid, s in st.expected_fixes if s > s_fix + window and fid != fix.fix_id
-        ]
-        st.lost = None
-        self.stats["fix_accepted"] += 1
-        return self.position(vehicle_id, fix.t)
-
-    def state(self, vehicle_id: str) -> dict[str, Any] | None:
-        """The vehicle's filter state as a JSON-ready dict (bounded size)."""
-        st = self._states.get(vehicle_id)
-        if st is None:
-            return None
-        return {
-            "hypotheses": [asdict(h) for h in st.hyps],
-            "filter": st.filter.to_dict(),
-            "z_last": st.z_last,
-            "lost": st.lost,
-            "last_fix_s": st.last_fix_s,
-            "missed_fixes": st.missed_fixes,
-            "expected_fixes": [list(e) for e in st.expected_fixes],
-            "rejected_in_row": st.rejected_in_row,
-            "confident_in_row": st.confident_in_row,
-            "unmatched": st.unmatched,
-            "last_report": None if st.last is None else _report_dict(st.last),
-            "last_xy": None if st.last_xy is None else list(st.last_xy),
-        }
-
-    def restore(self, vehicle_id: str, data: dict[str, Any]) -> None:
-        """Restore a state produced by :meth:`state`."""
-        st = self._new_state()
-        st.hyps = [Hypothesis(**h) for h in data["hypotheses"]]
-        st.filter.load_dict(data["filter"])
-        st.z_last = float(data["z_last"])
-        st.lost = data["lost"]
-        st.last_fix_s = data["last_fix_s"]
-        st.missed_fixes = int(data["missed_fixes"])
-        st.expected_fixes = [(str(a), float(b)) for a, b in data["expected_fixes"]]
-        st.rejected_in_row = int(data["rejected_in_row"])
-        st.confident_in_row = int(data["confident_in_row"])
-        st.unmatched = bool(data["unmatched"])
-        lr = data["last_report"]
-        st.last = None if lr is None else VehicleReport(**lr)
-        st.last_xy = None if data["last_xy"] is None else (data["last_xy"][0], data["last_xy"][1])
-        self._states[vehicle_id] = st
-
-    # -- internals -----------------------------------------------------------------------
-    def _new_state(self) -> _VehicleState:
+    # -- one pass: at most one report per vehicle ------------------------------------------
+    def _update_pass(self, reports: list[VehicleReport]) -> None:
         c = self.config
-        return _VehicleState(
-            filter=AlongTrackFilter(
-                accel_sigma_mps2=c.accel_sigma_mps2,
-                position_sigma_m=c.gps_sigma_m,
-                speed_sigma_mps=c.speed_sigma_mps,
-            )
+        n = len(reports)
+        rows = np.array([self._row_of(r.vehicle_id) for r in reports], dtype=np.int64)
+        for r in reports:
+            self._cache.pop(r.vehicle_id, None)
+        t = np.fromiter((r.t for r in reports), float, n)
+        speed = np.fromiter((r.speed_mps for r in reports), float, n)
+        odo = np.fromiter(
+            (math.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
         )
+        no_fix = np.fromiter((r.fix_quality == 0 for r in reports), bool, n)
+        lon = np.fromiter((r.lon for r in reports), float, n)
+        lat = np.fromiter((r.lat for r in reports), float, n)
+        xs, ys = self.net.to_local(lon, lat)
+        xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
 
-    def _sigma(self, report: VehicleReport) -> float:
-        scale = max(1.0, report.hdop) if report.hdop is not None else 1.0
-        return self.config.gps_sigma_m * scale
-
-    def _radius(self, report: VehicleReport) -> float:
-        return max(self.config.search_radius_m, 4.0 * self._sigma(report))
-
-    def _update(
-        self,
-        report: VehicleReport,
-        xy: tuple[float, float],
-        batch: CandidateBatch,
-        rows: np.ndarray,
-    ) -> TrackPosition:
-        c = self.config
-        vid = report.vehicle_id
-        st = self._states.get(vid)
-        if st is None:
-            st = self._states[vid] = self._new_state()
-        st.output = None
-        reason = self._implausible(st, report, xy)
-        if reason is not None:
-            st.rejected_in_row += 1
-            self.stats[f"rejected_{reason}"] += 1
-            if st.rejected_in_row < c.max_rejections_in_row:
-                logger.debug("%s: report at t=%.1f rejected (%s)", vid, report.t, reason)
-                pos = self.position(vid)
-                assert pos is not None
-                return pos
-            self.stats["reset_after_rejections"] += 1
-            st.hyps = []
-        st.rejected_in_row = 0
-        gap = report.t - st.last.t if st.last is not None else math.inf
-        if gap > c.reset_gap_s:
-            st.hyps = []
-        if len(rows) == 0:
-            st.hyps = []
-            st.unmatched = True
-            st.last, st.last_xy = report, xy
-            st.confident_in_row = 0
-            self.stats["unmatched"] += 1
-            return self._output(vid, st, report.t)
-        states = self._candidate_states(report, batch, rows)
-        prev = st.hyps
-        dt = report.t - st.last.t if st.last is not None else 0.0
-        if prev and st.last is not None and not st.unmatched:
-            weights, progress, parents = self._transitions(prev, states, report, st.last, dt)
-            if not np.isfinite(weights).any():
-                self.stats["unreachable_fix"] += 1
-                st.rejected_in_row += 1
-                if st.rejected_in_row < c.max_rejections_in_row:
-                    pos = self.position(vid)
-                    assert pos is not None
-                    return pos
+        # 1. physics: reject what a vehicle cannot do (the state stays untouched)
+        reason = self._implausible(rows, t, speed, xs, ys, no_fix)
+        rejected = reason != ""
+        for i in np.flatnonzero(rejected):
+            row = rows[i]
+            self._f.rejected[row] += 1
+            self.stats[f"rejected_{reason[i]}"] += 1
+            if self._f.rejected[row] >= c.max_rejections_in_row:
                 self.stats["reset_after_rejections"] += 1
-                weights = np.array([s[3] for s in states])
-                progress = np.zeros(len(states))
-        else:
-            weights = np.array([s[3] for s in states])
-            progress = np.zeros(len(states))
-            parents = None
-        finite = np.isfinite(weights)
-        w = weights - np.max(weights[finite])
-        p = np.where(finite, np.exp(w), 0.0)
-        p /= p.sum()
-        order = np.argsort(-p, kind="stable")
-        hyps: list[Hypothesis] = []
-        for k in order[: c.max_hypotheses]:
-            if p[k] < c.min_probability and hyps:
-                break
-            e, d, off, _, wrong = states[k]
-            hyps.append(Hypothesis(e, d, off, float(p[k]), float(progress[k]), wrong))
-        total = sum(h.probability for h in hyps)
-        hyps = [
-            Hypothesis(
-                h.edge_id, h.direction, h.offset_m, h.probability / total, h.progress_m, h.wrong_way
-            )
-            for h in hyps
-        ]
-        best = hyps[0]
-        fresh = not prev or st.unmatched or not st.filter.initialised or parents is None
-        if fresh:
-            st.filter.reset(report.t, best.progress_m, report.speed_mps)
-            self.stats["filter_reset"] += 1
-        else:
-            st.filter.predict(report.t)
-            nis = st.filter.update(best.progress_m, report.speed_mps, s_std_m=self._sigma(report))
-            if abs(nis) > FILTER_NIS_GATE:
-                st.filter.reset(report.t, best.progress_m, report.speed_mps)
-                self.stats["filter_reset"] += 1
-            if parents is not None:
-                self._track_expected_fixes(st, prev, parents, order[0], states, report)
-        st.hyps = hyps
-        st.z_last = best.progress_m
-        st.last, st.last_xy = report, xy
-        st.unmatched = False
-        self.stats["matched"] += 1
-        if self._place_probability(hyps) >= c.confidence:
-            st.confident_in_row += 1
-        else:
-            st.confident_in_row = 0
-        if st.lost is not None and st.confident_in_row >= c.relocalise_after:
-            self.stats["relocalised"] += 1
-            st.lost = None
-        self._check_missed_fixes(vid, st)
-        return self._output(vid, st, report.t)
+                self._f.hs[row] = -1
+                self._f.rejected[row] = 0
+                rejected[i] = False
+            else:
+                logger.debug(
+                    "%s: report at t=%.1f rejected (%s)", reports[i].vehicle_id, t[i], reason[i]
+                )
+        keep = ~rejected
+
+        # 2. reports without a position fix: dead reckoning on the odometer, if any
+        dr = keep & no_fix
+        for i in np.flatnonzero(dr):
+            self._dead_reckon(reports[i], rows[i], odo[i])
+        fix = keep & ~no_fix
+        if not fix.any():
+            return
+        idx = np.flatnonzero(fix)
+        self._fuse(
+            [reports[i] for i in idx], rows[idx], t[idx], speed[idx], odo[idx], xs[idx], ys[idx]
+        )
 
     def _implausible(
-        self, st: _VehicleState, report: VehicleReport, xy: tuple[float, float]
-    ) -> str | None:
-        c = self.config
-        if report.speed_mps > c.max_speed_mps:
-            return "speed"
-        last = st.last
-        if last is None or st.last_xy is None:
-            return None
-        dt = report.t - last.t
-        if dt <= 0:
-            return "time"
-        if abs(report.speed_mps - last.speed_mps) > c.max_accel_mps2 * dt + 2.0:
-            return "acceleration"
-        moved = math.hypot(xy[0] - st.last_xy[0], xy[1] - st.last_xy[1])
-        reach = max(report.speed_mps, last.speed_mps) * dt + 0.5 * c.max_accel_mps2 * dt * dt
-        if moved > reach + c.jump_margin_m:
-            return "jump"
-        return None
-
-    def _candidate_states(
-        self, report: VehicleReport, batch: CandidateBatch, rows: np.ndarray
-    ) -> list[tuple[int, int, float, float, bool]]:
-        """(edge, direction, offset, emission log-likelihood, wrong_way) per candidate."""
-        c = self.config
-        sigma = self._sigma(report)
-        use_course = report.speed_mps >= c.min_speed_for_course_mps
-        # receivers derive the course from Doppler velocity: its error shrinks with speed
-        course_sigma = math.hypot(
-            c.course_sigma_deg, c.course_noise_deg_mps / max(report.speed_mps, 0.1)
-        )
-        states = []
-        seen: set[int] = set()
-        for r in rows.tolist():
-            e = int(batch.edge_id[r])
-            if e in seen:
-                continue
-            seen.add(e)
-            dist = float(batch.distance_m[r])
-            base = -0.5 * (dist / sigma) ** 2
-            edge = self.net.edges[e]
-            for d in (1, -1):
-                wrong = not edge.allows(d)
-                ll = base + (c.wrong_way_log_prior if wrong else 0.0)
-                if use_course:
-                    heading = float(batch.heading_deg[r]) + (0.0 if d == 1 else 180.0)
-                    diff = (report.course_deg - heading + 180.0) % 360.0 - 180.0
-                    gauss = math.exp(-0.5 * (diff / course_sigma) ** 2) / (
-                        course_sigma * math.sqrt(2 * math.pi)
-                    )
-                    ll += math.log(
-                        (1 - c.course_outlier_weight) * gauss + c.course_outlier_weight / 360.0
-                    )
-                states.append((e, d, float(batch.offset_m[r]), ll, wrong))
-        return states
-
-    def _transitions(
         self,
-        prev: list[Hypothesis],
-        states: list[tuple[int, int, float, float, bool]],
-        report: VehicleReport,
-        last: VehicleReport,
-        dt: float,
-    ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float, Path | None]]]:
+        rows: IntArray,
+        t: FloatArray,
+        speed: FloatArray,
+        xs: FloatArray,
+        ys: FloatArray,
+        no_fix: npt.NDArray[np.bool_],
+    ) -> npt.NDArray[np.str_]:
+        """Why each report is physically impossible ('' when it is plausible)."""
         c = self.config
-        travelled = 0.5 * (report.speed_mps + last.speed_mps) * dt
-        reach = (
-            max(report.speed_mps, last.speed_mps) * dt
-            + 0.5 * c.max_accel_mps2 * dt * dt
-            + 3.0 * self._sigma(report)
-            + 10.0
-        )
-        beta = c.transition_beta_m + 0.1 * travelled
-        n = len(states)
-        best_score = np.full(n, _NEG_INF)
-        logsum = np.full(n, _NEG_INF)
-        progress = np.zeros(n)
-        parents: list[tuple[int, float, Path | None]] = [(-1, 0.0, None)] * n
-        for i, h in enumerate(prev):
-            log_prior = math.log(max(h.probability, 1e-300))
-            ahead = self.net.paths_ahead(
-                h.edge_id,
-                h.offset_m,
-                h.direction,
-                reach,
-                respect_direction=False,
-                max_paths=MAX_PATHS_SEARCH,
+        out = np.full(len(rows), "", dtype=object)
+        prev_t = self._f.t[rows]
+        has_prev = np.isfinite(prev_t)
+        dt = np.where(has_prev, t - prev_t, 1.0)
+        moved = np.hypot(xs - self._f.x[rows], ys - self._f.y[rows])
+        prev_v = self._f.v[rows]
+        reach = np.maximum(speed, prev_v) * dt + 0.5 * c.max_accel_mps2 * dt * dt
+        jump = has_prev & ~no_fix & np.isfinite(moved) & (moved > reach + c.jump_margin_m)
+        accel = has_prev & (np.abs(speed - prev_v) > c.max_accel_mps2 * dt + 2.0)
+        out[jump] = "jump"
+        out[accel] = "acceleration"
+        out[has_prev & (dt <= 0)] = "time"
+        out[speed > c.max_speed_mps] = "speed"
+        return out.astype(str)
+
+    def _dead_reckon(self, report: VehicleReport, row: int, odometer: float) -> None:
+        """A report without a position: advance on the odometer, or only note the time."""
+        self._last_report(row, report)
+        if not math.isfinite(odometer) or not math.isfinite(self._f.odo[row]):
+            self.stats["no_fix"] += 1
+            if math.isfinite(odometer):
+                self._f.odo[row] = odometer
+            return
+        travelled = max(odometer - self._f.odo[row], 0.0)
+        self.stats["odometer_dead_reckoning"] += 1
+        if not math.isnan(self._f.kf.t[row]):
+            track_odometer_step(
+                self._f.kf,
+                row,
+                np.float64(report.t),
+                np.float64(travelled),
+                self.config.odometer_sigma_fraction,
             )
-            behind = self.net.paths_ahead(
-                h.edge_id,
-                h.offset_m,
-                -h.direction,
-                c.backward_m,
-                respect_direction=False,
-                max_paths=MAX_PATHS_SEARCH,
+        # carry every hypothesis along its most probable path, so the next fix is near
+        for k in np.flatnonzero(self._f.hs[row] >= 0):
+            s = int(self._f.hs[row, k])
+            edge, off, d = self._advance(
+                s >> 1,
+                float(self._f.ho[row, k]),
+                1 - 2 * (s & 1),
+                travelled,
+                report,
+                wrong=not bool(self.reach.allowed[s]),
             )
-            for j, (e, d, off, _emit, _) in enumerate(states):
-                dist, path = _route_offset(ahead, behind, e, d, off, travelled)
-                if dist is None:
-                    if e == h.edge_id and d == -h.direction and travelled < 1.0:
-                        # a stopped vehicle may change direction (bidirectional trams)
-                        dist, path = abs(off - h.offset_m), None
-                        trans = c.reversal_log_prior - abs(dist) / beta
-                    else:
-                        continue
-                else:
-                    trans = -abs(dist - travelled) / beta
-                score = log_prior + trans
-                logsum[j] = np.logaddexp(logsum[j], score)
-                if score > best_score[j]:
-                    best_score[j] = score
-                    progress[j] = h.progress_m + dist
-                    parents[j] = (i, dist, path)
-        emissions = np.array([s[3] for s in states])
-        if travelled < c.standstill_distance_m:
-            # a standing receiver's errors barely change between fixes: repeated fixes are
-            # not independent evidence, so they must not talk the filter into certainty
-            emissions = emissions * c.standstill_evidence_weight
-        weights = np.where(np.isfinite(logsum), logsum + emissions, _NEG_INF)
-        return weights, progress, parents
+            self._f.hs[row, k] = state_id(edge, d)
+            self._f.ho[row, k] = off
+            self._f.hg[row, k] += travelled
+        self._f.z[row] += travelled
+        self._f.odo[row] = odometer
+        self._f.t[row] = report.t
 
-    def _place_probability(self, hyps: list[Hypothesis]) -> float:
-        """Probability of the best hypothesis' place (the same spot across a plain node)."""
-        if not hyps:
-            return 0.0
-        best = hyps[0]
-        total = best.probability
-        for h in hyps[1:]:
-            if self._same_place(best, h):
-                total += h.probability
-        return min(total, 1.0)
+    def _last_report(self, row: int, report: VehicleReport) -> None:
+        self._f.last[row] = report
 
-    def _same_place(self, a: Hypothesis, b: Hypothesis, tol_m: float = 3.0) -> bool:
-        if (a.edge_id, a.direction) == (b.edge_id, b.direction):
-            return True
-        g = self.net.traversal_any
-        for u, v in ((a, b), (b, a)):
-            if g.has_edge((u.edge_id, u.direction), (v.edge_id, v.direction)):
-                u_len = self.net.edge_length(u.edge_id)
-                to_exit = u_len - u.offset_m if u.direction == 1 else u.offset_m
-                v_len = self.net.edge_length(v.edge_id)
-                from_entry = v.offset_m if v.direction == 1 else v_len - v.offset_m
-                if to_exit <= tol_m and from_entry <= tol_m:
-                    return True
-        return False
+    # -- the fusion of position fixes ----------------------------------------------------
+    def _fuse(
+        self,
+        reports: list[VehicleReport],
+        rows: IntArray,
+        t: FloatArray,
+        speed: FloatArray,
+        odo: FloatArray,
+        xs: FloatArray,
+        ys: FloatArray,
+    ) -> None:
+        c = self.config
+        n = len(reports)
+        hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
+        sigma = c.gps_sigma_m * hdop
+        radius = np.maximum(c.search_radius_m, 4.0 * sigma)
+        batch = self.net.candidates_batch_xy(xs, ys, float(radius.max()))
+        order = np.lexsort((batch.edge_id, batch.point))
+        pt = batch.point[order]
+        # a fix beyond an edge's end projects onto that end: the neighbouring edge holds it
+        # (a candidate there would turn an along-track miss into a small "lateral" offset)
+        overshoot = np.sqrt(
+            np.maximum(batch.distance_m[order] ** 2 - batch.lateral_m[order] ** 2, 0.0)
+        )
+        within = (batch.distance_m[order] <= radius[pt]) & (overshoot <= _END_OVERSHOOT_M)
+        order, pt = order[within], pt[within]
+        # one candidate state per (candidate edge, running direction)
+        cv = np.repeat(pt, 2)  # report index of each candidate state
+        edge = np.repeat(batch.edge_id[order], 2)
+        direction = np.tile(np.array([1, -1]), len(order))
+        cs = state_id(edge, direction)
+        co = np.repeat(batch.offset_m[order], 2)
+        # beyond an end by less than the tolerance: the whole distance is the offset
+        lateral = np.repeat(np.copysign(batch.distance_m[order], batch.lateral_m[order]), 2)
+        heading = np.repeat(batch.heading_deg[order], 2)
+        wrong = ~self.reach.allowed[cs]
 
-    def _advance(
-        self, h: Hypothesis, distance_m: float, report: VehicleReport | None
-    ) -> tuple[int, float, int]:
-        """Move a track position along the most probable path by a signed distance."""
-        if abs(distance_m) < 1e-6:
-            return h.edge_id, h.offset_m, h.direction
-        if distance_m > 0:
-            paths = self.net.paths_ahead(
-                h.edge_id,
-                h.offset_m,
-                h.direction,
-                distance_m,
-                respect_direction=not h.wrong_way,
-                max_paths=MAX_PATHS_SEARCH,
+        prev_t = self._f.t[rows]
+        dt = np.where(np.isfinite(prev_t), t - prev_t, 0.0)
+        odo_prev = self._f.odo[rows]
+        has_odo = np.isfinite(odo) & np.isfinite(odo_prev)
+        travelled = np.where(
+            has_odo,
+            np.maximum(odo - np.where(has_odo, odo_prev, 0.0), 0.0),
+            0.5 * (speed + self._f.v[rows]) * dt,
+        )
+        fresh = (
+            (self._f.hs[rows, 0] < 0)
+            | self._f.unmatched[rows]
+            | ~np.isfinite(prev_t)
+            | (dt > c.reset_gap_s)
+        )
+        counts = np.bincount(cv, minlength=n)
+        unmatched = counts == 0
+
+        # emission parts that do not depend on the parent: course and the wrong-way cost
+        course = np.fromiter((r.course_deg for r in reports), float, n)
+        use_course = speed >= c.min_speed_for_course_mps
+        course_sigma = np.hypot(c.course_sigma_deg, c.course_noise_deg_mps / np.maximum(speed, 0.1))
+        track_dir = heading + np.where(direction == 1, 0.0, 180.0)
+        diff = (course[cv] - track_dir + 180.0) % 360.0 - 180.0
+        gauss = np.exp(-0.5 * (diff / course_sigma[cv]) ** 2) / (
+            course_sigma[cv] * math.sqrt(2.0 * math.pi)
+        )
+        course_ll = np.where(
+            use_course[cv],
+            np.log((1.0 - c.course_outlier_weight) * gauss + c.course_outlier_weight / 360.0),
+            0.0,
+        )
+        h = np.radians(heading)
+        nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
+        static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
+        weight = np.where(travelled < c.standstill_distance_m, c.standstill_evidence_weight, 1.0)
+        noise_var = (sigma * sigma)[cv]
+        floor = c.outlier_weight / (2.0 * radius[cv])
+
+        # pairs: every candidate state with every slot of its vehicle's previous hypotheses
+        k = self._k
+        prow = rows[cv]
+        ps = self._f.hs[prow]  # (m, k)
+        valid = (ps >= 0) & ~fresh[cv][:, None]
+        pss = np.where(valid, ps, 0)
+        po = self._f.ho[prow]
+        exp_m = travelled[cv][:, None]
+        dist = self.reach.signed_distance(
+            pss, po, np.repeat(cs[:, None], k, 1), np.repeat(co[:, None], k, 1), expected_m=exp_m
+        )
+        beta = np.where(
+            has_odo,
+            0.3 * c.transition_beta_m + 0.02 * travelled,
+            c.transition_beta_m + 0.1 * travelled,
+        )[cv][:, None]
+        trans = -np.abs(dist - exp_m) / beta
+        # a standing vehicle may change direction (bidirectional trams at termini)
+        reversal = ((pss >> 1) == (cs >> 1)[:, None]) & ((pss & 1) != (cs & 1)[:, None])
+        rev_ok = reversal & (exp_m < 1.0)
+        rev_dist = np.abs(co[:, None] - po)
+        trans = np.where(rev_ok, c.reversal_log_prior - rev_dist / beta, trans)
+        dist = np.where(rev_ok, rev_dist, dist)
+        enters_wrong = wrong[:, None] & self.reach.allowed[pss]
+        trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
+        trans = np.where(valid & np.isfinite(trans), trans, _NEG_INF)
+
+        parent = BiasState(
+            self._f.bx[prow],
+            self._f.by[prow],
+            self._f.pxx[prow],
+            self._f.pxy[prow],
+            self._f.pyy[prow],
+        )
+        prior = bias_predict(parent, dt[cv][:, None], c.bias_sigma_m, c.bias_tau_s)
+        post, resid, var = bias_update(
+            prior, nx[:, None], ny[:, None], lateral[:, None], noise_var[:, None]
+        )
+        lat_ll = np.log(
+            (1.0 - c.outlier_weight)
+            * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
+            / math.sqrt(2.0 * math.pi)
+            + floor[:, None]
+        )
+        emit = (lat_ll + static_ll[:, None]) * weight[cv][:, None]
+        score = self._f.hp[prow] + trans + emit
+        best = np.argmax(score, axis=1)
+        ar = np.arange(len(cs))
+        top = score[ar, best]
+        with np.errstate(invalid="ignore"):
+            lse = top + np.log(np.sum(np.exp(score - top[:, None]), axis=1))
+        lse = np.where(np.isfinite(top), lse, _NEG_INF)
+
+        # fresh starts: the emission alone, with the stationary bias prior
+        start = BiasState.prior(len(cs), c.bias_sigma_m)
+        post0, resid0, var0 = bias_update(start, nx, ny, lateral, noise_var)
+        lat0 = np.log(
+            (1.0 - c.outlier_weight)
+            * np.exp(-0.5 * resid0 * resid0 / var0 - 0.5 * np.log(var0))
+            / math.sqrt(2.0 * math.pi)
+            + floor
+        )
+        score0 = lat0 + static_ll + np.where(wrong, c.wrong_way_entry_log_prior, 0.0)
+
+        # vehicles whose previous hypotheses reach no candidate: a jump the map cannot explain
+        cont = ~fresh[cv]
+        reach_any = np.zeros(n, bool)
+        np.logical_or.at(reach_any, cv, np.isfinite(lse) & cont)
+        stuck = ~fresh & ~unmatched & ~reach_any
+        for i in np.flatnonzero(stuck):
+            row = rows[i]
+            self.stats["unreachable_fix"] += 1
+            self._f.rejected[row] += 1
+            if self._f.rejected[row] < c.max_rejections_in_row:
+                continue
+            self.stats["reset_after_rejections"] += 1
+            self._f.rejected[row] = 0
+            fresh[i] = True
+        use0 = fresh[cv]
+        new_lp = np.where(use0, score0, lse)
+        new_prog = np.where(use0, 0.0, self._f.hg[prow][ar, best] + dist[ar, best])
+        new_parent = np.where(use0, -1, best)
+        new_ww = np.where(wrong, np.where(use0, 0.0, self._f.hw[prow][ar, best] + dt[cv]), 0.0)
+
+        def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
+            return np.where(use0, a0, a[ar, best])
+
+        bias_cols = (
+            pick(post0.bx, post.bx),
+            pick(post0.by, post.by),
+            pick(post0.pxx, post.pxx),
+            pick(post0.pxy, post.pxy),
+            pick(post0.pyy, post.pyy),
+        )
+        self._commit(
+            reports,
+            rows,
+            t,
+            speed,
+            odo,
+            xs,
+            ys,
+            unmatched,
+            stuck & ~fresh,
+            fresh,
+            cv,
+            cs,
+            co,
+            new_lp,
+            new_prog,
+            new_parent,
+            new_ww,
+            bias_cols,
+            sigma,
+        )
+
+    def _commit(
+        self,
+        reports: list[VehicleReport],
+        rows: IntArray,
+        t: FloatArray,
+        speed: FloatArray,
+        odo: FloatArray,
+        xs: FloatArray,
+        ys: FloatArray,
+        unmatched: npt.NDArray[np.bool_],
+        skip: npt.NDArray[np.bool_],
+        fresh: npt.NDArray[np.bool_],
+        cv: IntArray,
+        cs: IntArray,
+        co: FloatArray,
+        lp: FloatArray,
+        prog: FloatArray,
+        parent: IntArray,
+        ww: FloatArray,
+        bias_cols: tuple[FloatArray, ...],
+        sigma: FloatArray,
+    ) -> None:
+        """Keep the best hypotheses of every vehicle, choose the reported lineage, run the
+        along-track filter."""
+        c = self.config
+        k = self._k
+        n = len(reports)
+        finite = np.isfinite(lp)
+        # normalise per vehicle (candidates are grouped by vehicle, in vehicle order)
+        vmax = np.full(n, _NEG_INF)
+        np.maximum.at(vmax, cv[finite], lp[finite])
+        p = np.where(finite, np.exp(lp - vmax[cv]), 0.0)
+        total = np.bincount(cv, weights=p, minlength=n)
+        p = p / np.where(total[cv] > 0, total[cv], 1.0)
+        rank_order = np.lexsort((-p, cv))
+        bounds = np.searchsorted(cv[rank_order], np.arange(n + 1))
+        committed = []
+        for i in range(n):
+            row = rows[i]
+            report = reports[i]
+            if skip[i]:
+                continue  # rejected as unreachable: the state stays
+            if unmatched[i]:
+                self._f.hs[row] = -1
+                self._f.hp[row] = _NEG_INF
+                self._f.unmatched[row] = True
+                self._f.rejected[row] = 0
+                self._set_fix(row, report, t[i], speed[i], odo[i], xs[i], ys[i])
+                self.stats["unmatched"] += 1
+                continue
+            ranked = rank_order[bounds[i] : bounds[i + 1]][:k]
+            members = ranked[:1].tolist() + [
+                int(m) for m in ranked[1:] if p[m] >= c.min_probability
+            ]
+            chosen = self._choose_output(members, p, parent, bool(fresh[i]))
+            sel = np.array([chosen, *(m for m in members if m != chosen)], dtype=np.int64)
+            m = len(sel)
+            self._f.hs[row] = -1
+            self._f.hp[row] = _NEG_INF
+            self._f.hs[row, :m] = cs[sel]
+            self._f.ho[row, :m] = co[sel]
+            self._f.hp[row, :m] = np.log(np.maximum(p[sel], 1e-300))
+            self._f.hg[row, :m] = prog[sel]
+            self._f.hw[row, :m] = ww[sel]
+            for name, col in zip(("bx", "by", "pxx", "pxy", "pyy"), bias_cols, strict=True):
+                getattr(self._f, name)[row, :m] = col[sel]
+            switched = not fresh[i] and parent[chosen] != 0
+            if switched:
+                self.stats["lineage_switch"] += 1
+            self._run_filter(
+                row,
+                t[i],
+                speed[i],
+                odo[i],
+                prog[chosen],
+                restart=bool(fresh[i] or switched),
+                sigma=sigma[i],
             )
-            if not paths:
-                return h.edge_id, h.offset_m, h.direction
-            path = _preferred_path(paths, report.route if report is not None else None)
-            last = path.steps[-1]
-            return last.edge_id, last.exit_offset_m, last.direction
-        paths = self.net.paths_ahead(
-            h.edge_id,
-            h.offset_m,
-            -h.direction,
-            -distance_m,
-            respect_direction=False,
-            max_paths=MAX_PATHS_SEARCH,
-        )
-        last = _preferred_path(paths, None).steps[-1]
-        return last.edge_id, last.exit_offset_m, -last.direction
+            if self.fixes.active and not fresh[i] and not switched:
+                self.fixes.track_expected(report.vehicle_id, self, row, prog[chosen])
+            self._f.unmatched[row] = False
+            self._f.rejected[row] = 0
+            self._set_fix(row, report, t[i], speed[i], odo[i], xs[i], ys[i])
+            self.stats["matched"] += 1
+            committed.append(i)
+        if not committed:
+            return
+        done = rows[np.array(committed)]
+        self._f.place[done] = self._place_probabilities(done)
+        confident = self._f.place[done] >= c.confidence
+        self._f.confident_run[done] = np.where(confident, self._f.confident_run[done] + 1, 0)
+        for i in committed:
+            row = rows[i]
+            vid = reports[i].vehicle_id
+            if self._f.lost[row] is not None and self._f.confident_run[row] >= c.relocalise_after:
+                self.stats["relocalised"] += 1
+                self._f.lost[row] = None
+            missed = self.fixes.active and self.fixes.check_missed(vid, self, row)
+            if missed and self._f.lost[row] is None:
+                self._f.lost[row] = "missed_fixes"
+                self._f.confident_run[row] = 0
+                self.stats["lost_missed_fixes"] += 1
+        gone = rows[unmatched]
+        self._f.confident_run[gone] = 0
+        self._f.place[gone] = 0.0
 
-    def _signed_track_distance(
-        self, frm: tuple[int, float, int], to: tuple[int, float], cutoff_m: float
-    ) -> float | None:
-        e, off, d = frm
-        ahead = self.net.route_distance(
-            e, off, d, to[0], to[1], cutoff_m=cutoff_m, respect_direction=False
-        )
-        if ahead is not None:
-            return ahead.distance_m
-        back = self.net.route_distance(
-            e, off, -d, to[0], to[1], cutoff_m=cutoff_m, respect_direction=False
-        )
-        if back is not None:
-            return -back.distance_m
-        return None
+    def _choose_output(
+        self, members: list[int], p: FloatArray, parent: IntArray, fresh: bool
+    ) -> int:
+        """The hypothesis the reported position follows: the best one, unless it leaves
+        the previous lineage without being decisive."""
+        best = members[0]
+        if fresh or parent[best] == 0:
+            return best
+        if p[best] >= self.config.switch_probability:
+            return best
+        for m in members[1:]:
+            if parent[m] == 0:
+                # the lineage holds only while it stays plausible
+                return m if p[m] > 1.0 - self.config.switch_probability else best
+        return best
 
-    def _output(self, vid: str, st: _VehicleState, t: float) -> TrackPosition:
-        assert st.last is not None
-        if st.unmatched or not st.hyps:
+    def _run_filter(
+        self,
+        row: int,
+        t: float,
+        speed: float,
+        odo: float,
+        progress: float,
+        *,
+        restart: bool,
+        sigma: float,
+    ) -> None:
+        c = self.config
+        kf = self._f.kf
+        if restart or math.isnan(kf.t[row]):
+            kf.t[row], kf.s[row], kf.v[row] = t, progress, speed
+            kf.pss[row] = (sigma * _ALONG_SIGMA_FACTOR) ** 2 + c.bias_sigma_m**2
+            kf.psv[row] = 0.0
+            kf.pvv[row] = (2.0 * c.speed_sigma_mps) ** 2
+            self.stats["filter_reset"] += 1
+        else:
+            odo_prev = self._f.odo[row]
+            if math.isfinite(odo) and math.isfinite(odo_prev):
+                track_odometer_step(
+                    kf,
+                    row,
+                    np.float64(t),
+                    np.float64(max(odo - odo_prev, 0.0)),
+                    c.odometer_sigma_fraction,
+                )
+                v_meas = None
+            else:
+                track_predict(kf, row, np.float64(t), c.accel_sigma_mps2)
+                v_meas = np.float64(speed)
+            along = math.hypot(sigma, c.bias_sigma_m) * _ALONG_SIGMA_FACTOR
+            nis = track_update(
+                kf, row, np.float64(progress), np.float64(along), v_meas, c.speed_sigma_mps
+            )
+            if abs(float(nis)) > c.nis_gate:
+                kf.s[row] = progress
+                kf.pss[row] = along * along
+                kf.psv[row] = 0.0
+                self.stats["filter_reset"] += 1
+        self._f.z[row] = progress
+
+    def _set_fix(
+        self,
+        row: int,
+        report: VehicleReport,
+        t: float,
+        speed: float,
+        odo: float,
+        x: float,
+        y: float,
+    ) -> None:
+        self._f.t[row] = self._f.t_fix[row] = t
+        self._f.x[row], self._f.y[row] = x, y
+        self._f.v[row] = speed
+        self._f.odo[row] = odo
+        self._f.odo_fix[row] = odo
+        self._f.last[row] = report
+
+    # -- outputs -------------------------------------------------------------------------
+    def _hypotheses(self, row: int) -> tuple[Hypothesis, ...]:
+        out = []
+        for k in np.flatnonzero(self._f.hs[row] >= 0):
+            s = int(self._f.hs[row, k])
+            out.append(
+                Hypothesis(
+                    edge_id=s >> 1,
+                    direction=1 - 2 * (s & 1),
+                    offset_m=float(self._f.ho[row, k]),
+                    probability=float(math.exp(self._f.hp[row, k])),
+                    progress_m=float(self._f.hg[row, k]),
+                    wrong_way=not bool(self.reach.allowed[s]),
+                    wrong_way_s=float(self._f.hw[row, k]),
+                )
+            )
+        return tuple(out)
+
+    def _place_probabilities(self, rows: IntArray) -> FloatArray:
+        """Probability of each vehicle's reported place: its hypothesis plus those at the
+        same spot (the same state, or within a few metres across a plain node)."""
+        hs, ho = self._f.hs[rows], self._f.ho[rows]
+        prob = np.where(hs >= 0, np.exp(self._f.hp[rows]), 0.0)
+        s0, o0 = hs[:, :1], ho[:, :1]
+        others = np.where(hs >= 0, hs, 0)
+        fwd = self.reach.ahead(
+            np.broadcast_to(s0, hs.shape), np.broadcast_to(o0, hs.shape), others, ho
+        )
+        back = self.reach.ahead(
+            others, ho, np.broadcast_to(s0, hs.shape), np.broadcast_to(o0, hs.shape)
+        )
+        same = (hs == s0) | (np.minimum(fwd, back) <= _SAME_PLACE_M)
+        same[:, 0] = True
+        return np.minimum(np.sum(np.where(same & (hs >= 0), prob, 0.0), axis=1), 1.0)
+
+    def _output(self, vid: str, row: int, t: float) -> TrackPosition:
+        c = self.config
+        last = self._f.last[row]
+        if last is None:  # pragma: no cover - position() asks only for reported vehicles
+            raise RuntimeError(f"positioning state of {vid!r} without a report")
+        if self._f.unmatched[row] or self._f.hs[row, 0] < 0 or math.isnan(self._f.kf.t[row]):
             return TrackPosition(
                 vehicle_id=vid,
                 t=t,
@@ -795,28 +771,37 @@ class Positioner:
                 edge_id=None,
                 direction=None,
                 offset_m=None,
-                lon=st.last.lon,
-                lat=st.last.lat,
+                lon=last.lon,
+                lat=last.lat,
                 heading_deg=None,
-                speed_mps=st.last.speed_mps,
+                speed_mps=last.speed_mps,
                 probability=0.0,
                 sigma_m=None,
             )
-        est = st.filter.estimate(t)
-        age = t - st.last.t
-        best = st.hyps[0]
-        edge, off, direction = self._advance(best, est.s_m - st.z_last, st.last)
+        s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
+        hyps = self._hypotheses(row)
+        first = hyps[0]
+        edge, off, direction = self._advance(
+            first.edge_id,
+            first.offset_m,
+            first.direction,
+            float(s) - self._f.z[row],
+            last,
+            wrong=first.wrong_way,
+        )
         x, y = self.net.point_at(edge, off)
         lon, lat = self.net.to_lonlat(x, y)
-        place_p = self._place_probability(st.hyps)
+        place_p = float(self._f.place[row])
+        age = t - float(self._f.t_fix[row])
+        odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
+        if math.isfinite(odometer_run):
+            exhausted = odometer_run > c.odometer_dead_reckoning_m
+        else:
+            exhausted = age > c.dead_reckoning_s
         status: PositionStatus
-        if (
-            st.lost is not None
-            or age > self.config.dead_reckoning_s
-            or est.s_std_m > self.config.lost_sigma_m
-        ):
+        if self._f.lost[row] is not None or exhausted or float(s_std) > c.lost_sigma_m:
             status = "lost"
-        elif place_p >= self.config.confidence:
+        elif place_p >= c.confidence:
             status = "confident"
         else:
             status = "ambiguous"
@@ -830,86 +815,278 @@ class Positioner:
             lon=float(lon),
             lat=float(lat),
             heading_deg=self.net.heading_at(edge, off, direction),
-            speed_mps=est.v_mps,
+            speed_mps=float(v),
             probability=place_p,
-            sigma_m=est.s_std_m,
-            wrong_way=best.wrong_way,
-            hypotheses=tuple(st.hyps),
-            dead_reckoned_s=age,
+            sigma_m=float(s_std),
+            wrong_way=first.wrong_way,
+            hypotheses=hyps,
+            dead_reckoned_s=max(age, 0.0),
         )
 
-    # -- discrete fixes ------------------------------------------------------------------
-    def _equipped(self, vid: str) -> bool:
-        return bool(self._fix_by_edge) and (self._fix_equipped is None or vid in self._fix_equipped)
-
-    def _track_expected_fixes(
+    def _advance(
         self,
-        st: _VehicleState,
-        prev: list[Hypothesis],
-        parents: list[tuple[int, float, Path | None]],
-        best_index: int,
-        states: list[tuple[int, int, float, float, bool]],
-        report: VehicleReport,
+        edge: int,
+        offset: float,
+        direction: int,
+        distance_m: float,
+        report: VehicleReport | None,
+        *,
+        wrong: bool,
+    ) -> tuple[int, float, int]:
+        """Move a track position by a signed distance along its most probable path."""
+        if abs(distance_m) < 1e-6:
+            return edge, offset, direction
+        length = self.net.edge_length(edge)
+        moved = offset + direction * distance_m
+        if 0.0 <= moved <= length:  # the common case: still on the same edge
+            return edge, moved, direction
+        if distance_m > 0:
+            paths = self.net.paths_ahead(
+                edge,
+                offset,
+                direction,
+                distance_m,
+                respect_direction=not wrong,
+                max_paths=MAX_PATHS_SEARCH,
+            )
+            if not paths:
+                return edge, min(max(moved, 0.0), length), direction
+            last = _preferred_path(paths, report.route if report is not None else None).steps[-1]
+            return last.edge_id, last.exit_offset_m, last.direction
+        # behind the start of the edge: the filter lags the matched lineage by a few metres;
+        # guessing a branch behind would be worse than stopping at the node
+        return edge, min(max(moved, 0.0), length), direction
+
+    # -- discrete fixes ------------------------------------------------------------------
+    def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:
+        """Apply a discrete position fix (a balise or loop crossing).
+
+        A fix is accepted only when it lies within the acceptance window around the
+        predicted position, ``fix_window_base_m + fix_window_fraction x distance since the
+        last accepted fix``. An accepted fix resets the along-track error and pins the
+        vehicle to the fix's track; a fix outside the window makes the position ``lost``.
+
+        Returns
+        -------
+        TrackPosition or None
+            The new position (None for an unknown vehicle).
+        """
+        row = self._row.get(vehicle_id)
+        self._cache.pop(vehicle_id, None)
+        if (
+            row is None
+            or self._f.last[row] is None
+            or self._f.hs[row, 0] < 0
+            or math.isnan(self._f.kf.t[row])
+        ):
+            self.stats["fix_unusable"] += 1
+            return self.position(vehicle_id)
+        self.fixes.apply(vehicle_id, self, row, fix)
+        self._cache.pop(vehicle_id, None)
+        return self.position(vehicle_id, fix.t)
+
+    # hooks used by :class:`DiscreteFixes` (kept small and explicit)
+    def predicted(self, row: int, t: float) -> tuple[int, float, int, float, float, float]:
+        """Predicted (edge, offset, direction, s, speed, s_std) of a vehicle at ``t``."""
+        c = self.config
+        s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
+        first = self._hypotheses(row)[0]
+        edge, off, d = self._advance(
+            first.edge_id,
+            first.offset_m,
+            first.direction,
+            float(s) - self._f.z[row],
+            self._f.last[row],
+            wrong=first.wrong_way,
+        )
+        return edge, off, d, float(s), float(v), float(s_std)
+
+    def pin(
+        self, row: int, t: float, edge: int, offset: float, direction: int, s: float, v: float
     ) -> None:
-        if not self._equipped(report.vehicle_id):
-            return
-        i, dist, path = parents[best_index]
-        if i < 0 or path is None or dist <= 0:
-            return
-        origin = prev[i].progress_m
-        for step in path.steps:
-            if step.start_m > dist:
-                break
-            for off, fid in self._fix_by_edge.get(step.edge_id, ()):
-                at = step.distance_to(off)
-                if at is not None and 0 < at <= dist:
-                    st.expected_fixes.append((fid, origin + at))
+        """Pin a vehicle to one track position (an accepted discrete fix)."""
+        c = self.config
+        self._f.hs[row] = -1
+        self._f.hp[row] = _NEG_INF
+        self._f.hs[row, 0] = state_id(edge, direction)
+        self._f.ho[row, 0] = offset
+        self._f.hp[row, 0] = 0.0
+        self._f.hg[row, 0] = s
+        self._f.hw[row, 0] = 0.0
+        kf = self._f.kf
+        kf.t[row], kf.s[row], kf.v[row] = t, s, v
+        kf.pss[row], kf.psv[row], kf.pvv[row] = c.fix_sigma_m**2, 0.0, kf.pvv[row]
+        self._f.z[row] = s
+        self._f.place[row] = 1.0
+        self._f.lost[row] = None
 
-    def _check_missed_fixes(self, vid: str, st: _VehicleState) -> None:
-        if not st.expected_fixes:
+    def mark_lost(self, row: int, reason: str) -> None:
+        """Declare a vehicle's position lost (until relocalised)."""
+        self._f.lost[row] = reason
+        self._f.confident_run[row] = 0
+
+    def along(self, row: int) -> float:
+        """Current along-track filter position of a vehicle, m."""
+        return float(self._f.kf.s[row])
+
+    # -- persistence ---------------------------------------------------------------------
+    def state(self, vehicle_id: str) -> dict[str, Any] | None:
+        """The vehicle's filter state as a JSON-ready dict (bounded size)."""
+        row = self._row.get(vehicle_id)
+        if row is None:
+            return None
+        slots = np.flatnonzero(self._f.hs[row] >= 0)
+        per_slot = {
+            name: [float(getattr(self._f, name)[row, k]) for k in slots]
+            for name in ("ho", "hp", "hg", "hw", "bx", "by", "pxx", "pxy", "pyy")
+        }
+        kf = self._f.kf
+        last = self._f.last[row]
+        return {
+            "hypotheses": [asdict(h) for h in self._hypotheses(row)],
+            "states": [int(self._f.hs[row, k]) for k in slots],
+            "slots": per_slot,
+            "vehicle": {
+                name: _json_float(getattr(self._f, name)[row])
+                for name in ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
+            },
+            "filter": [_json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
+            "rejected_in_row": int(self._f.rejected[row]),
+            "confident_in_row": int(self._f.confident_run[row]),
+            "unmatched": bool(self._f.unmatched[row]),
+            "lost": self._f.lost[row],
+            "fixes": self.fixes.state(vehicle_id),
+            "last_report": None if last is None else _report_dict(last),
+        }
+
+    def restore(self, vehicle_id: str, data: dict[str, Any]) -> None:
+        """Restore a state produced by :meth:`state`."""
+        self.forget(vehicle_id)
+        row = self._row_of(vehicle_id)
+        states = [int(s) for s in data["states"]][: self._k]
+        m = len(states)
+        self._f.hs[row, :m] = states
+        for name, values in data["slots"].items():
+            if name in _SLOT_FIELDS:
+                getattr(self._f, name)[row, :m] = values[:m]
+        for name, value in data["vehicle"].items():
+            if name in _VEHICLE_FIELDS:
+                getattr(self._f, name)[row] = math.nan if value is None else value
+        kf = self._f.kf
+        for arr, value in zip(
+            (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv), data["filter"], strict=True
+        ):
+            arr[row] = math.nan if value is None else value
+        self._f.rejected[row] = int(data["rejected_in_row"])
+        self._f.confident_run[row] = int(data["confident_in_row"])
+        self._f.unmatched[row] = bool(data["unmatched"])
+        self._f.lost[row] = data["lost"]
+        self.fixes.restore(vehicle_id, data.get("fixes"))
+        lr = data["last_report"]
+        self._f.last[row] = None if lr is None else VehicleReport(**lr)
+        self._f.place[row] = self._place_probabilities(np.array([row]))[0] if m else 0.0
+
+
+#: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
+_SLOT_FIELDS = ("ho", "hp", "hg", "hw", "bx", "by", "pxx", "pxy", "pyy")
+#: Per-vehicle float arrays of the fleet state.
+_VEHICLE_FIELDS = ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
+
+
+@dataclass
+class _Fleet:
+    """The positioning state of every vehicle, as arrays (one row per vehicle).
+
+    Hypothesis slots hold, per vehicle, up to ``k`` places; slot 0 is the one the reported
+    position follows. State ids pack (edge, running direction), see
+    :mod:`antikol.positioning.reach`; ``-1`` marks an empty slot.
+    """
+
+    k: int
+    # per hypothesis (vehicles x k): state id, offset on the edge (m), log-probability,
+    # progress along its history (m), time running wrong way (s), GPS bias east and
+    # north (m) and its covariance (m²)
+    hs: IntArray = field(init=False)
+    ho: FloatArray = field(init=False)
+    hp: FloatArray = field(init=False)
+    hg: FloatArray = field(init=False)
+    hw: FloatArray = field(init=False)
+    bx: FloatArray = field(init=False)
+    by: FloatArray = field(init=False)
+    pxx: FloatArray = field(init=False)
+    pxy: FloatArray = field(init=False)
+    pyy: FloatArray = field(init=False)
+    # per vehicle: last fix time (s), local position (m), reported speed (m/s), odometer
+    # (m), odometer and time at the last GPS position, lineage progress at the last fix (m),
+    # probability of the reported place, rejections and confident matches in a row
+    t: FloatArray = field(init=False)
+    x: FloatArray = field(init=False)
+    y: FloatArray = field(init=False)
+    v: FloatArray = field(init=False)
+    odo: FloatArray = field(init=False)
+    odo_fix: FloatArray = field(init=False)
+    t_fix: FloatArray = field(init=False)
+    z: FloatArray = field(init=False)
+    place: FloatArray = field(init=False)
+    rejected: IntArray = field(init=False)
+    confident_run: IntArray = field(init=False)
+    unmatched: npt.NDArray[np.bool_] = field(init=False)
+    kf: TrackFilterState = field(init=False)
+    last: list[VehicleReport | None] = field(init=False, default_factory=list)
+    lost: list[str | None] = field(init=False, default_factory=list)
+
+    def __post_init__(self) -> None:
+        k = self.k
+        self.hs = np.zeros((0, k), np.int64)
+        for name in _SLOT_FIELDS:
+            setattr(self, name, np.zeros((0, k)))
+        for name in (*_VEHICLE_FIELDS, "place"):
+            setattr(self, name, np.zeros(0))
+        self.rejected = np.zeros(0, np.int64)
+        self.confident_run = np.zeros(0, np.int64)
+        self.unmatched = np.zeros(0, bool)
+        self.kf = TrackFilterState.empty(0)
+
+    def grow(self, n: int) -> None:
+        """Extend every array to ``n`` rows (new rows cleared)."""
+        old = len(self.t)
+        if n <= old:
             return
-        s_now = st.filter.estimate().s_m
-        remaining = []
-        for fid, s_exp in st.expected_fixes:
-            since = s_exp - (st.last_fix_s if st.last_fix_s is not None else s_exp)
-            window = self.config.fix_window_base_m + self.config.fix_window_fraction * abs(since)
-            if s_now > s_exp + window + 10.0:
-                st.missed_fixes += 1
-                self.stats["fix_missed"] += 1
-                logger.debug("%s: expected fix %s not received", vid, fid)
-            else:
-                remaining.append((fid, s_exp))
-        st.expected_fixes = remaining
-        if st.missed_fixes > self.config.max_missed_fixes and st.lost is None:
-            st.lost = "missed_fixes"
-            st.confident_in_row = 0
-            self.stats["lost_missed_fixes"] += 1
+        for name in (
+            "hs",
+            *_SLOT_FIELDS,
+            *_VEHICLE_FIELDS,
+            "place",
+            "rejected",
+            "confident_run",
+            "unmatched",
+        ):
+            arr = getattr(self, name)
+            extra = np.zeros((n - old, *arr.shape[1:]), arr.dtype)
+            setattr(self, name, np.concatenate([arr, extra]))
+        self.kf.grow(n)
+        self.last.extend([None] * (n - old))
+        self.lost.extend([None] * (n - old))
+        for row in range(old, n):
+            self.clear(row)
+
+    def clear(self, row: int) -> None:
+        """Empty one row (a new or forgotten vehicle)."""
+        self.hs[row] = -1
+        self.hp[row] = -math.inf
+        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix"):
+            getattr(self, name)[row] = np.nan
+        self.v[row] = self.z[row] = self.place[row] = 0.0
+        self.rejected[row] = self.confident_run[row] = 0
+        self.unmatched[row] = False
+        self.kf.t[row] = np.nan
+        self.last[row] = None
+        self.lost[row] = None
 
 
-def _route_offset(
-    ahead: list[Path],
-    behind: list[Path],
-    edge: int,
-    direction: int,
-    offset: float,
-    travelled: float,
-) -> tuple[float | None, Path | None]:
-    """Signed along-track distance to a candidate state, closest to ``travelled``."""
-    best: float | None = None
-    best_path: Path | None = None
-    for path in ahead:
-        for step in path.steps:
-            if step.edge_id == edge and step.direction == direction:
-                d = step.distance_to(offset)
-                if d is not None and (best is None or abs(d - travelled) < abs(best - travelled)):
-                    best, best_path = d, path
-    for path in behind:
-        for step in path.steps:
-            if step.edge_id == edge and step.direction == -direction:
-                d = step.distance_to(offset)
-                if d is not None and (best is None or abs(-d - travelled) < abs(best - travelled)):
-                    best, best_path = -d, None
-    return best, best_path
+def _json_float(value: float) -> float | None:
+    v = float(value)
+    return None if math.isnan(v) else v
 
 
 def _preferred_path(paths: list[Path], route: tuple[int, ...] | None) -> Path:

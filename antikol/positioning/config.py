@@ -1,0 +1,166 @@
+"""Parameters of track-selective positioning (SI units), each with the reason for its value."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from antikol.errors import InvalidArgumentError
+from antikol.thresholds import FILTER_NIS_GATE
+
+__all__ = ["PositioningConfig"]
+
+
+@dataclass(frozen=True, slots=True)
+class PositioningConfig:
+    """Parameters of the positioning filter (SI units).
+
+    GPS error model
+    ---------------
+    A fix is the antenna's true position plus a **slowly varying bias** (multipath in
+    streets: several metres, persisting for tens of seconds to minutes) plus white noise.
+    Every hypothesis carries its own estimate of the bias (a two-dimensional Gauss–Markov
+    process), so a persistent lateral offset is explained as bias rather than as evidence
+    for the neighbouring track, and the course over ground — good to a few degrees while
+    moving — keeps its real weight.
+
+    Attributes
+    ----------
+    gps_sigma_m : float
+        White noise of a fix per axis, m (scaled up by HDOP above 1).
+    bias_sigma_m : float
+        Stationary standard deviation of the GPS bias per axis, m.
+    bias_tau_s : float
+        Correlation time of the bias, s.
+    outlier_weight : float
+        Weight of the broad component of the lateral likelihood (multipath jumps, heavy
+        tails): one fix far off the track cannot veto the truth.
+    search_radius_m : float
+        Candidate tracks are searched within this radius, m (at least 4 sigma).
+    max_hypotheses : int
+        Hypotheses kept per vehicle.
+    min_probability : float
+        Hypotheses below this probability are dropped.
+    course_sigma_deg, course_noise_deg_mps : float
+        Course agreement scale: ``hypot(course_sigma_deg, course_noise_deg_mps / speed)``
+        degrees (track-heading mismatch plus a Doppler course error that shrinks with
+        speed).
+    course_outlier_weight : float
+        Weight of the uniform floor of the course likelihood.
+    min_speed_for_course_mps : float
+        Below this speed the course carries no weight, m/s.
+    wrong_way_entry_log_prior : float
+        Log-probability of starting to run against a one-way track (a move onto it, or the
+        first fix of a vehicle): wrong-way running is rare and must be earned.
+    wrong_way_log_prior : float
+        Log-likelihood cost of every fix spent running against a one-way track: sustained,
+        consistent evidence must outweigh it before a wrong-way hypothesis wins.
+    reversal_log_prior : float
+        Log-probability that a standing vehicle changes its running direction between two
+        fixes (bidirectional trams at termini).
+    transition_beta_m : float
+        Scale of the transition likelihood, m (plus 10 % of the distance travelled; a tenth
+        of that with an odometer).
+    confidence : float
+        A match is ``confident`` when the best place holds at least this probability.
+    switch_probability : float
+        The reported position stays on the lineage of the previous one (a position that a
+        move along the track connects to it) unless another hypothesis reaches this
+        probability or the lineage falls below its complement: a belief flip between
+        unconnected tracks must be decisive.
+    max_speed_mps, max_accel_mps2 : float
+        Physical limits used to reject impossible reports (m/s, m/s²).
+    jump_margin_m : float
+        Extra displacement allowed between two fixes beyond what speed permits, m.
+    max_rejections_in_row : int
+        After this many rejected reports in a row, the vehicle is re-initialised.
+    dead_reckoning_s : float
+        Longest outage bridged on speed alone before the position is lost, s.
+    odometer_sigma_fraction : float
+        Relative error of an odometer's distance (wheel slip and wear).
+    odometer_dead_reckoning_m : float
+        Longest distance bridged on the odometer alone before the position is lost, m.
+    lost_sigma_m : float
+        Along-track uncertainty at which a dead-reckoned position is lost, m.
+    reset_gap_s : float
+        A gap between reports longer than this restarts the filters, s.
+    accel_sigma_mps2, speed_sigma_mps : float
+        Along-track filter process noise and reported-speed noise.
+    nis_gate : float
+        A normalised innovation beyond this restarts the along-track filter.
+    fix_window_base_m, fix_window_fraction : float
+        Acceptance window of a discrete fix: base + fraction x distance since the last fix.
+    fix_sigma_m : float
+        Accuracy of a discrete fix, m.
+    max_missed_fixes : int
+        Expected fixes that may be missed in a row before the position is lost.
+    relocalise_after : int
+        A lost vehicle is trusted again after this many confident GPS matches in a row.
+    standstill_distance_m, standstill_evidence_weight : float
+        While the vehicle moves less than ``standstill_distance_m`` between fixes, the
+        emission log-likelihood is scaled by ``standstill_evidence_weight``: the white part
+        of the GPS error is itself correlated at a standstill, so repeated fixes are not
+        independent evidence.
+    reach_m : float
+        Along-track distances between positions are precomputed up to this distance, m;
+        farther moves (long outages) restart the vehicle from the evidence.
+    """
+
+    gps_sigma_m: float = 3.0
+    bias_sigma_m: float = 2.5
+    bias_tau_s: float = 60.0
+    outlier_weight: float = 0.02
+    search_radius_m: float = 25.0
+    max_hypotheses: int = 8
+    min_probability: float = 1e-4
+    course_sigma_deg: float = 6.0
+    course_noise_deg_mps: float = 20.0
+    course_outlier_weight: float = 0.02
+    min_speed_for_course_mps: float = 2.0
+    wrong_way_entry_log_prior: float = math.log(1e-3)
+    wrong_way_log_prior: float = -0.5
+    reversal_log_prior: float = math.log(1e-4)
+    transition_beta_m: float = 6.0
+    confidence: float = 0.8
+    switch_probability: float = 0.75
+    max_speed_mps: float = 30.0
+    max_accel_mps2: float = 3.5
+    jump_margin_m: float = 30.0
+    max_rejections_in_row: int = 3
+    dead_reckoning_s: float = 30.0
+    odometer_sigma_fraction: float = 0.01
+    odometer_dead_reckoning_m: float = 2000.0
+    lost_sigma_m: float = 60.0
+    reset_gap_s: float = 30.0
+    accel_sigma_mps2: float = 0.6
+    speed_sigma_mps: float = 0.3
+    nis_gate: float = FILTER_NIS_GATE
+    fix_window_base_m: float = 2.0
+    fix_window_fraction: float = 0.02
+    fix_sigma_m: float = 0.5
+    max_missed_fixes: int = 2
+    relocalise_after: int = 5
+    standstill_distance_m: float = 1.0
+    standstill_evidence_weight: float = 0.2
+    reach_m: float = 400.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InvalidArgumentError(f.name, value, "must be a number")
+            if not math.isfinite(value):
+                raise InvalidArgumentError(f.name, value, "must be finite")
+            if f.name.endswith("log_prior"):
+                if value > 0.0:
+                    raise InvalidArgumentError(f.name, value, "a log-probability is <= 0")
+            elif value < 0.0:
+                raise InvalidArgumentError(f.name, value, "must be >= 0")
+        for name in ("gps_sigma_m", "bias_tau_s", "transition_beta_m", "search_radius_m"):
+            if getattr(self, name) <= 0.0:
+                raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
+        if self.max_hypotheses < 1:
+            raise InvalidArgumentError("max_hypotheses", self.max_hypotheses, "must be >= 1")
+        for name in ("confidence", "switch_probability", "outlier_weight"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")

@@ -1,0 +1,216 @@
+"""Along-track distances between track positions, precomputed once per map.
+
+Positioning asks, for every pair (previous hypothesis, candidate) of every vehicle at every
+cycle, how far along the track one lies from the other. Walking the network for each pair
+costs milliseconds; here the distances between every pair of **track states** (an edge and
+a running direction) within ``reach_m`` are computed once with a compiled shortest-path
+search (:func:`scipy.sparse.csgraph.dijkstra` with a distance limit), and each query is an
+array lookup (:func:`numpy.searchsorted`), vectorised over any number of pairs.
+
+A state id packs an edge and a running direction: ``2 * edge_id`` runs along the edge's
+vertices (+1), ``2 * edge_id + 1`` against them (-1).
+
+>>> import numpy as np, trackmap
+>>> from antikol.positioning.reach import ReachTable
+>>> net = trackmap.load_default()
+>>> table = ReachTable.for_map(net, reach_m=400.0)
+>>> s = np.array([0]); o = np.array([10.0])
+>>> float(table.signed_distance(s, o, s, o + 25.0, physical=True)[0])
+25.0
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+__all__ = ["ReachTable", "state_direction", "state_edge", "state_id"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+#: Sources handled per Dijkstra call (bounds the dense result to a few MB).
+_CHUNK = 256
+
+
+def state_id(edge_id: Any, direction: Any) -> Any:
+    """State id of (edge, running direction); scalars or arrays."""
+    return 2 * np.asarray(edge_id, dtype=np.int64) + (np.asarray(direction) < 0)
+
+
+def state_edge(state: Any) -> Any:
+    """Edge id of a state id; scalars or arrays."""
+    return np.asarray(state, dtype=np.int64) >> 1
+
+
+def state_direction(state: Any) -> Any:
+    """Running direction (+1/-1) of a state id; scalars or arrays."""
+    return 1 - 2 * (np.asarray(state, dtype=np.int64) & 1)
+
+
+@dataclass(frozen=True, slots=True)
+class _Distances:
+    """Exit-to-entry distances ``keys = from * n_states + to`` (sorted) and their values."""
+
+    keys: IntArray
+    metres: FloatArray
+
+    def lookup(self, frm: IntArray, to: IntArray, n_states: int) -> FloatArray:
+        key = frm * n_states + to
+        idx = np.searchsorted(self.keys, key)
+        idx = np.minimum(idx, max(len(self.keys) - 1, 0))
+        if len(self.keys) == 0:
+            return np.full(key.shape, np.inf)
+        found = self.keys[idx] == key
+        return np.where(found, self.metres[idx], np.inf)
+
+
+class ReachTable:
+    """Along-track distances between track states of one map, up to ``reach_m``.
+
+    Parameters
+    ----------
+    track_map : trackmap.TrackMap
+    reach_m : float
+        Longest exit-to-entry distance kept, m.
+
+    Notes
+    -----
+    Two tables are kept: over **physical** moves (any move the track geometry allows,
+    whatever the permitted running direction — a vehicle may run the wrong way) and over
+    **permitted** moves only.
+    """
+
+    # maps compare by content and are unhashable: key by identity, held weakly
+    _cache: ClassVar[dict[int, tuple[weakref.ref[Any], dict[float, ReachTable]]]] = {}
+
+    def __init__(self, track_map: Any, *, reach_m: float) -> None:
+        self.reach_m = float(reach_m)
+        edges = track_map.edges
+        self.n_states = 2 * len(edges)
+        self.lengths: FloatArray = np.asarray(
+            shapely.length([e.geometry for e in edges]), dtype=float
+        )
+        self.allowed: npt.NDArray[np.bool_] = np.array(
+            [e.allows(1 if k % 2 == 0 else -1) for e in edges for k in (0, 1)], dtype=bool
+        )
+        self._physical = self._distances(track_map.traversal_any)
+        self._permitted = self._distances(track_map.traversal)
+
+    @classmethod
+    def for_map(cls, track_map: Any, *, reach_m: float) -> ReachTable:
+        """The table of a map, computed once per map object and distance."""
+        key = id(track_map)
+        entry = cls._cache.get(key)
+        if entry is None or entry[0]() is not track_map:
+            entry = (weakref.ref(track_map, lambda _: cls._cache.pop(key, None)), {})
+            cls._cache[key] = entry
+        per_map = entry[1]
+        table = per_map.get(reach_m)
+        if table is None:
+            table = per_map[reach_m] = cls(track_map, reach_m=reach_m)
+        return table
+
+    def _distances(self, graph: Any) -> _Distances:
+        """Dijkstra over a graph with an entry and an exit node per state.
+
+        entry(s) -> exit(s) weighs the edge's length, exit(u) -> entry(v) is a move at a
+        node (0 m), so the distance from exit(u) to entry(v) is the track between them.
+        """
+        n = self.n_states
+        rows: list[int] = []
+        cols: list[int] = []
+        weights: list[float] = []
+        for s in range(n):
+            rows.append(s)  # entry(s) = s
+            cols.append(n + s)  # exit(s) = n + s
+            weights.append(max(float(self.lengths[s >> 1]), 1e-6))
+        for (eu, du), (ev, dv) in graph.edges():
+            rows.append(n + int(state_id(eu, du)))
+            cols.append(int(state_id(ev, dv)))
+            weights.append(1e-9)  # csgraph drops explicit zeros
+        matrix = csr_matrix((weights, (rows, cols)), shape=(2 * n, 2 * n))
+        keys: list[IntArray] = []
+        metres: list[FloatArray] = []
+        for lo in range(0, n, _CHUNK):
+            sources = np.arange(lo, min(lo + _CHUNK, n)) + n
+            dist = dijkstra(matrix, directed=True, indices=sources, limit=self.reach_m + 1e-6)
+            entry = dist[:, :n]
+            src_local, to = np.nonzero(np.isfinite(entry))
+            frm = sources[src_local] - n
+            keep = frm != to
+            keys.append(frm[keep].astype(np.int64) * n + to[keep])
+            metres.append(np.round(entry[src_local[keep], to[keep]], 6))
+        all_keys = np.concatenate(keys) if keys else np.zeros(0, np.int64)
+        all_m = np.concatenate(metres) if metres else np.zeros(0)
+        order = np.argsort(all_keys)
+        return _Distances(all_keys[order], all_m[order])
+
+    # -- queries -------------------------------------------------------------------------
+    def remaining(self, state: IntArray, offset_m: FloatArray) -> FloatArray:
+        """Distance from a position to the end of its edge in the state's direction, m."""
+        length = self.lengths[state >> 1]
+        forward = (state & 1) == 0
+        return np.where(forward, length - offset_m, offset_m)
+
+    def since_entry(self, state: IntArray, offset_m: FloatArray) -> FloatArray:
+        """Distance from the start of the edge (in the state's direction) to a position, m."""
+        length = self.lengths[state >> 1]
+        forward = (state & 1) == 0
+        return np.where(forward, offset_m, length - offset_m)
+
+    def ahead(
+        self,
+        frm: IntArray,
+        frm_offset_m: FloatArray,
+        to: IntArray,
+        to_offset_m: FloatArray,
+        *,
+        physical: bool = True,
+    ) -> FloatArray:
+        """Distance from one position running in state ``frm`` forward to another, m.
+
+        ``inf`` where ``to`` is not reachable within ``reach_m`` (or lies behind on the
+        same edge).
+        """
+        frm = np.asarray(frm, dtype=np.int64)
+        to = np.asarray(to, dtype=np.int64)
+        frm_offset_m = np.asarray(frm_offset_m, dtype=float)
+        to_offset_m = np.asarray(to_offset_m, dtype=float)
+        table = self._physical if physical else self._permitted
+        between = table.lookup(frm, to, self.n_states)
+        out = self.remaining(frm, frm_offset_m) + between + self.since_entry(to, to_offset_m)
+        same = frm == to
+        along = (to_offset_m - frm_offset_m) * np.where((frm & 1) == 0, 1.0, -1.0)
+        return np.where(same & (along >= -1e-9), along, out)
+
+    def signed_distance(
+        self,
+        frm: IntArray,
+        frm_offset_m: FloatArray,
+        to: IntArray,
+        to_offset_m: FloatArray,
+        *,
+        physical: bool = True,
+        expected_m: FloatArray | float = 0.0,
+    ) -> FloatArray:
+        """Signed along-track distance from a position to a candidate of the same running
+        direction: positive ahead, negative behind, m.
+
+        When the candidate is both ahead (by going round) and behind, the one closer to
+        ``expected_m`` is returned; ``inf`` when neither is within ``reach_m``.
+        """
+        frm = np.asarray(frm, dtype=np.int64)
+        to = np.asarray(to, dtype=np.int64)
+        fwd = self.ahead(frm, frm_offset_m, to, to_offset_m, physical=physical)
+        back = self.ahead(frm ^ 1, frm_offset_m, to ^ 1, to_offset_m, physical=physical)
+        expected = np.asarray(expected_m, dtype=float)
+        use_back = np.abs(-back - expected) < np.abs(fwd - expected)
+        return np.where(use_back, -back, fwd)

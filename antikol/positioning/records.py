@@ -1,0 +1,112 @@
+"""Records of track-selective positioning: hypotheses, positions and discrete fixes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from antikol.kinds import PositionStatus
+
+__all__ = ["DiscreteFix", "FixPoint", "Hypothesis", "TrackPosition"]
+
+
+@dataclass(frozen=True, slots=True)
+class Hypothesis:
+    """One place a vehicle may be.
+
+    Attributes
+    ----------
+    edge_id : int
+    direction : int
+        +1 along the edge's vertices, -1 against them.
+    offset_m : float
+        Projection of the fix on the edge, m from its first vertex.
+    probability : float
+    progress_m : float
+        Distance travelled along this hypothesis' history, m (the Kalman filter's frame).
+    wrong_way : bool
+        Running against the edge's permitted direction.
+    wrong_way_s : float
+        How long this hypothesis' history has been running wrong way, s (0 when not).
+    """
+
+    edge_id: int
+    direction: int
+    offset_m: float
+    probability: float
+    progress_m: float
+    wrong_way: bool = False
+    wrong_way_s: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class TrackPosition:
+    """Where a vehicle is on the network.
+
+    Attributes
+    ----------
+    vehicle_id : str
+    t : float
+        Time of the estimate, s (later than the last report when dead-reckoned).
+    status : str
+        ``confident``, ``ambiguous`` (several places plausible), ``lost`` (dead reckoning
+        exhausted, or contradicted by a discrete fix) or ``unmatched`` (no track nearby).
+    edge_id, direction, offset_m
+        The most probable track position (None when unmatched).
+    lon, lat : float
+        Degrees: the filtered track position, or the raw fix when unmatched.
+    heading_deg : float or None
+        True heading of travel on the track, degrees.
+    speed_mps : float
+        Filtered speed, m/s.
+    probability : float
+        Probability of the most probable place (0 when unmatched).
+    sigma_m : float or None
+        Along-track one-sigma uncertainty, m.
+    wrong_way : bool
+        The vehicle runs against the track's permitted direction.
+    hypotheses : tuple of Hypothesis
+        Every hypothesis kept: the one the reported position follows first, then the
+        others, most probable first.
+    dead_reckoned_s : float
+        Time since the last position fix, s (0 at a fix).
+    """
+
+    vehicle_id: str
+    t: float
+    status: PositionStatus
+    edge_id: int | None
+    direction: int | None
+    offset_m: float | None
+    lon: float
+    lat: float
+    heading_deg: float | None
+    speed_mps: float
+    probability: float
+    sigma_m: float | None
+    wrong_way: bool = False
+    hypotheses: tuple[Hypothesis, ...] = ()
+    dead_reckoned_s: float = 0.0
+
+    @property
+    def matched(self) -> bool:
+        """True when confident or ambiguous (usable for track-based analysis)."""
+        return self.status in ("confident", "ambiguous")
+
+
+@dataclass(frozen=True, slots=True)
+class FixPoint:
+    """A discrete position reference on the map (a balise or a loop crossing)."""
+
+    fix_id: str
+    edge_id: int
+    offset_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class DiscreteFix:
+    """A vehicle passing a :class:`FixPoint` at time ``t`` (s)."""
+
+    t: float
+    edge_id: int
+    offset_m: float
+    fix_id: str | None = None
