@@ -10,7 +10,7 @@ import pytest
 
 import trackmap
 from antikol.evaluation.scoring import PositioningScore, positioning_accuracy
-from antikol.sim.simulation import GpsModel, Simulator, fleet
+from antikol.sim import GpsModel, Simulator, fleet
 
 SEEDS = (2, 3)
 

@@ -12,8 +12,7 @@ import pytest
 import trackmap
 from antikol.analysis.braking import load_profile, stopping_distance
 from antikol.ingest.nmea import read_nmea_file
-from antikol.sim.simulation import (
-    CSV_HEADER,
+from antikol.sim import (
     DEFAULT_SPEED_MPS,
     GpsModel,
     Route,
@@ -27,6 +26,7 @@ from antikol.sim.simulation import (
     random_route,
     route_from_edges,
 )
+from antikol.sim.simulator import CSV_HEADER
 from tests._osm import OsmBuilder, switch_fixture
 
 TRAM = load_profile("tram")

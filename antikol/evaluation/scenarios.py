@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from antikol.sim.simulation import (
+from antikol.sim import (
     GpsModel,
     Route,
     ScriptEvent,

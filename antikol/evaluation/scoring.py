@@ -45,7 +45,7 @@ import numpy as np
 from antikol.analysis import braking
 from antikol.analysis.analyser import Analyser
 from antikol.kinds import level_rank
-from antikol.sim.simulation import Route, SimulationResult, TramSpec, Truth
+from antikol.sim import Route, SimulationResult, TramSpec, Truth
 from antikol.thresholds import MIN_HORIZON_M, STANDING_SPEED_MPS
 from trackmap import TrackMap
 
