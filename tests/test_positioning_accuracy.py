@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 
 import trackmap
-from antikol.evaluation.scoring import PositioningScore, positioning_accuracy
+from antikol.evaluation.positioning_accuracy import PositioningScore, positioning_accuracy
 from antikol.sim import GpsModel, Simulator, fleet
 
 SEEDS = (2, 3)
