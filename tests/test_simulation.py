@@ -12,6 +12,7 @@ import pytest
 import trackmap
 from antikol.analysis.braking import load_profile, stopping_distance
 from antikol.ingest.nmea import read_nmea_file
+from antikol.ingest.replaylog import REPLAY_COLUMNS as CSV_HEADER
 from antikol.sim import (
     DEFAULT_SPEED_MPS,
     GpsModel,
@@ -26,7 +27,6 @@ from antikol.sim import (
     random_route,
     route_from_edges,
 )
-from antikol.sim.simulator import CSV_HEADER
 from tests._osm import OsmBuilder, switch_fixture
 
 TRAM = load_profile("tram")

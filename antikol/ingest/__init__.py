@@ -2,7 +2,8 @@
 
 * :mod:`antikol.ingest.nmea` — the own GPS receiver (NMEA 0183 through pynmeagps);
 * :mod:`antikol.ingest.protocol` — the radio frames of the other vehicles;
-* :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format.
+* :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format (its
+  only reader and writer).
 """
 
 from antikol.ingest.nmea import NmeaReader, NmeaStats, read_nmea_directory, read_nmea_file
@@ -16,6 +17,7 @@ from antikol.ingest.protocol import (
 )
 from antikol.ingest.replaylog import (
     REPLAY_COLUMNS,
+    REPLAY_OPTIONAL_COLUMNS,
     ReplayLog,
     RowProblem,
     read_nmea_logs,
@@ -25,6 +27,7 @@ from antikol.ingest.replaylog import (
 
 __all__ = [
     "REPLAY_COLUMNS",
+    "REPLAY_OPTIONAL_COLUMNS",
     "DecoderStats",
     "EncodeError",
     "FrameError",

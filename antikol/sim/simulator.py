@@ -12,7 +12,6 @@ The dynamics are deterministic; the GPS noise is seeded per tram from
 
 from __future__ import annotations
 
-import csv
 import itertools
 import logging
 import math
@@ -27,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.ingest.nmea import format_gga, format_rmc, format_vtg
+from antikol.ingest.replaylog import write_replay_csv
 from antikol.report import VehicleReport
 from antikol.sim.conflicts import ConflictIndex
 from antikol.sim.dynamics import BRAKE_CODES, Dynamics, History
@@ -36,13 +36,7 @@ from antikol.sim.truth import FixLog, Truth
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
-__all__ = [
-    "CSV_EXTRA_COLUMNS",
-    "CSV_HEADER",
-    "DEFAULT_EPOCH_UTC_S",
-    "SimulationResult",
-    "Simulator",
-]
+__all__ = ["DEFAULT_EPOCH_UTC_S", "SimulationResult", "Simulator"]
 
 logger = logging.getLogger(__name__)
 
@@ -50,10 +44,6 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Default UTC time of simulation time 0 (2023-11-14 22:13:20 UTC), s since the Unix epoch.
 DEFAULT_EPOCH_UTC_S: Final = 1_700_000_000.0
-#: The replay CSV columns, in order (extra columns may follow).
-CSV_HEADER: Final = ("vehicle_id", "t", "lat", "lon", "speed_mps", "course_deg")
-#: Extra CSV columns :meth:`SimulationResult.write_csv` can append.
-CSV_EXTRA_COLUMNS: Final = ("braking", "length_m", "antenna_offset_m", "seq")
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,16 +88,19 @@ class SimulationResult:
         return [r for r in self.reports if r.vehicle_id == vehicle_id]
 
     def write_csv(self, path: str | os.PathLike[str], *, extra_columns: Sequence[str] = ()) -> Path:
-        """Write the reports as a replay CSV.
+        """Write the reports as a replay CSV (:func:`antikol.ingest.replaylog.write_replay_csv`).
 
-        The header is ``vehicle_id,t,lat,lon,speed_mps,course_deg`` followed by the chosen
-        ``extra_columns`` (any of ``braking``, ``length_m``, ``antenna_offset_m``,
-        ``seq``). ``t`` is simulation seconds; lat/lon are degrees with 8 decimals.
+        The header is :data:`~antikol.ingest.replaylog.REPLAY_COLUMNS` followed by the
+        chosen ``extra_columns``; ``t`` is simulation seconds. With the optional columns
+        ``braking`` and ``length_m`` (and ``antenna_offset_m``) the log replays with the
+        trams' brake states and lengths.
 
         Parameters
         ----------
         path : str or path-like
         extra_columns : sequence of str
+            Any of :data:`~antikol.ingest.replaylog.REPLAY_OPTIONAL_COLUMNS` (``braking``,
+            ``length_m``, ``antenna_offset_m``, ``seq``).
 
         Returns
         -------
@@ -116,30 +109,9 @@ class SimulationResult:
         Raises
         ------
         ValueError
-            An unknown extra column.
+            An unknown extra column, or one given twice.
         """
-        extras = tuple(extra_columns)
-        unknown = [c for c in extras if c not in CSV_EXTRA_COLUMNS]
-        if unknown:
-            raise ValueError(f"unknown CSV column(s) {unknown}; choose from {CSV_EXTRA_COLUMNS}")
-        out = Path(path)
-        with out.open("w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh, lineterminator="\n")
-            writer.writerow([*CSV_HEADER, *extras])
-            for r in self.reports:
-                row = [
-                    r.vehicle_id,
-                    f"{r.t:.6f}",
-                    f"{r.lat:.8f}",
-                    f"{r.lon:.8f}",
-                    f"{r.speed_mps:.3f}",
-                    f"{r.course_deg:.2f}",
-                ]
-                for c in extras:
-                    value = getattr(r, c)
-                    row.append("" if value is None else str(value))
-                writer.writerow(row)
-        return out
+        return write_replay_csv(path, self.reports, extra_columns=extra_columns)
 
     def write_nmea(
         self, directory: str | os.PathLike[str], *, vtg: bool = True, talker: str = "GN"
