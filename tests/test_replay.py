@@ -13,7 +13,7 @@ from antikol import ReplayError
 from antikol.cli import main
 from antikol.errors import InputFileError
 from antikol.evaluation.replay import cycles
-from antikol.ingest.nmea import format_gga, format_rmc
+from antikol.ingest.nmea_writer import format_gga, format_rmc
 from antikol.ingest.replaylog import (
     REPLAY_OPTIONAL_COLUMNS,
     read_replay_csv,

@@ -25,7 +25,7 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from antikol.ingest.nmea import format_gga, format_rmc, format_vtg
+from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.ingest.replaylog import write_replay_csv
 from antikol.report import VehicleReport
 from antikol.sim.conflicts import ConflictIndex
