@@ -71,7 +71,7 @@ class Passage:
     t_out_s: float
 
 
-@dataclass
+@dataclass(frozen=True)
 class GroundTruth:
     """Per analysis time, the state of every ordered pair.
 

@@ -84,7 +84,7 @@ class Score:
         }
 
 
-@dataclass
+@dataclass(frozen=True)
 class AlarmLog:
     """Warnings of one analyser per ordered pair and the lamp of each vehicle per cycle."""
 
@@ -191,7 +191,7 @@ def score(
     return sc
 
 
-@dataclass
+@dataclass(frozen=True)
 class Comparison:
     """Side-by-side scores of the sector rule and the track-aware analyser on one run."""
 

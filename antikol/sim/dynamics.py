@@ -62,7 +62,7 @@ _BRAKE_FLAG_MPS2: Final = 0.05  # deceleration above which the service brake is 
 _nz = np.count_nonzero
 
 
-@dataclass
+@dataclass(frozen=True)
 class History:
     """State of every tram at every step of a run (rows: steps 0..n_steps, columns: trams).
 

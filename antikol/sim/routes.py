@@ -34,9 +34,9 @@ IntArray = npt.NDArray[np.int64]
 class Route:
     """A path through the track map along permitted moves.
 
-    Build one with :meth:`from_steps`, :func:`random_route` or :func:`route_from_edges`,
-    which check the steps against the map; the constructor itself checks only the
-    internal consistency (it has no map).
+    Build one with :meth:`from_steps`, :func:`~antikol.sim.route_building.random_route` or
+    :func:`~antikol.sim.route_building.route_from_edges`, which check the steps against
+    the map; the constructor itself checks only the internal consistency (it has no map).
 
     Route distances are metres from the start position (``start_offset_m`` on the first
     step's edge) along the steps, from 0 to :attr:`length_m`.

@@ -52,14 +52,14 @@ class TramSpec:
         Vehicle maximum speed, m/s; default the profile's.
     stops : sequence of StopCall or (distance_m, dwell_s), optional
         Planned stops (route distances of the front, m, and dwell times, s); default every
-        map stop on the route (:func:`map_stops_on_route`) with ``dwell_s``. Pass ``()``
-        for a non-stop run.
+        map stop on the route (:func:`~antikol.sim.routes.map_stops_on_route`) with
+        ``dwell_s``. Pass ``()`` for a non-stop run.
     dwell_s : float
         Dwell time of the default stops, s (default 20).
     cruise_factor : float
         Fraction of the allowed speed the driver aims at, in (0, 1] (default 0.95).
     script : sequence of ScriptEvent or tuple
-        Timed events (tuples are read with :meth:`ScriptEvent.parse`).
+        Timed events (tuples are read with :meth:`~antikol.sim.events.ScriptEvent.parse`).
     broadcast_route : bool
         Put the route's edge ids ahead (at most 255) in every report.
     exit_at_end : bool
