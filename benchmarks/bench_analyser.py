@@ -16,7 +16,7 @@ import time
 
 import trackmap
 from antikol.analysis.analyser import Analyser
-from antikol.sim.simulation import GpsModel, Simulator, fleet
+from antikol.sim import GpsModel, Simulator, fleet
 
 
 def cycles(net: trackmap.TrackMap, n: int, seconds: float) -> list[list]:

@@ -25,7 +25,7 @@ import numpy as np
 
 import trackmap
 from antikol.positioning.matcher import Positioner
-from antikol.sim.simulation import GpsModel, Simulator, fleet
+from antikol.sim import GpsModel, Simulator, fleet
 
 GPS = GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10)
 

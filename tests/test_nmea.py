@@ -14,16 +14,9 @@ from pynmeagps import VALCKSUM, VALMSGID, NMEAReader
 from pynmeagps.nmeahelpers import calc_checksum
 
 from antikol.errors import InputFileError, InvalidReportError, ProtocolError
-from antikol.ingest.nmea import (
-    KNOT_MPS,
-    SKIP_REASONS,
-    NmeaReader,
-    format_gga,
-    format_rmc,
-    format_vtg,
-    read_nmea_directory,
-    read_nmea_file,
-)
+from antikol.ingest.nmea import SKIP_REASONS, NmeaReader, read_nmea_directory, read_nmea_file
+from antikol.ingest.nmea_spec import KNOT_MPS
+from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.report import VehicleReport
 
 # Textbook sentences with their original checksums.
@@ -697,16 +690,22 @@ def test_written_sentences_are_valid_nmea(report: VehicleReport) -> None:
         assert msg is not None
 
 
+@given(reports_strategy)
+def test_written_coordinates_never_carry_sixty_minutes(report: VehicleReport) -> None:
+    fields = format_rmc(report).split(",")
+    assert float(fields[3][2:]) < 60.0 and float(fields[5][3:]) < 60.0
+
+
 def test_writer_known_sentence() -> None:
     report = VehicleReport(
         "v", CLASSIC_T, 48 + 7.038 / 60, 11 + 31 / 60, 22.4 * KNOT_MPS, 84.4, fix_quality=1
     )
     sentence = format_rmc(report, talker="GP")
-    assert sentence.startswith("$GPRMC,123519.00,A,4807.03800,N,01131.00000,E,22.400,84.40,230394,")
+    assert sentence.startswith("$GPRMC,123519.00,A,4807.03800,N,01131.00000,E,22.4,84.4,230394,")
     assert format_gga(report, talker="GP", hdop=0.9, num_satellites=8).startswith(
-        "$GPGGA,123519.00,4807.03800,N,01131.00000,E,1,08,0.90,"
+        "$GPGGA,123519.00,4807.03800,N,01131.00000,E,1,8,0.9,"
     )
-    assert format_vtg(report, talker="GP").startswith("$GPVTG,84.40,T,,M,22.400,N,41.485,K,A*")
+    assert format_vtg(report, talker="GP").startswith("$GPVTG,84.4,T,,M,22.4,N,41.485,K,A*")
 
 
 def test_writer_void_and_empty_fields() -> None:
@@ -724,8 +723,8 @@ def test_writer_void_and_empty_fields() -> None:
 def test_writer_rounds_minutes_without_sixty() -> None:
     report = VehicleReport("v", 0.0, 12.9999999999, -0.0000000001, 0.0, 359.999)
     fields = format_rmc(report).split(",")
-    assert fields[3:7] == ["1300.00000", "N", "00000.00000", "W"]
-    assert fields[8] == "360.00"
+    assert fields[3:7] == ["1300.00000", "N", "00000.00000", "E"]
+    assert fields[8] == "360.0"
     (back,), _ = read_all([format_rmc(report)])
     assert back.course_deg == 0.0
     assert back.t == 0.0

@@ -9,8 +9,8 @@ from __future__ import annotations
 import pytest
 
 import trackmap
-from antikol.evaluation.scoring import PositioningScore, positioning_accuracy
-from antikol.sim.simulation import GpsModel, Simulator, fleet
+from antikol.evaluation.positioning_accuracy import PositioningScore, positioning_accuracy
+from antikol.sim import GpsModel, Simulator, fleet
 
 SEEDS = (2, 3)
 

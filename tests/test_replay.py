@@ -3,16 +3,24 @@
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+import trackmap
 from antikol import ReplayError
 from antikol.cli import main
 from antikol.errors import InputFileError
 from antikol.evaluation.replay import cycles
-from antikol.ingest.nmea import format_gga, format_rmc
-from antikol.ingest.replaylog import read_replay_csv, write_replay_csv
+from antikol.ingest.nmea_writer import format_gga, format_rmc
+from antikol.ingest.replaylog import (
+    REPLAY_OPTIONAL_COLUMNS,
+    read_replay_csv,
+    write_replay_csv,
+)
+from antikol.report import VehicleReport
+from antikol.sim import Simulator, fleet
 from tests._paths import interleave, reports_from_xy
 
 
@@ -52,6 +60,76 @@ def test_header_and_file_errors(tmp_path):
     (tmp_path / "empty.csv").write_text("")
     with pytest.raises(ReplayError, match="empty"):
         read_replay_csv(tmp_path / "empty.csv")
+
+
+def test_simulated_log_round_trip_keeps_the_optional_columns(tmp_path):
+    net = trackmap.load_default()
+    specs = fleet(
+        net,
+        3,
+        2,
+        route_length_m=2000.0,
+        headway_s=2.0,
+        length_m=28.0,
+        antenna_offset_m=5.0,
+        script=[("emergency_brake", 40.0)],
+    )
+    result = Simulator(net, specs, seed=2).run(60.0)
+    path = result.write_csv(tmp_path / "sim.csv", extra_columns=REPLAY_OPTIONAL_COLUMNS)
+    log = read_replay_csv(path, strict=True)
+    # equal to the simulated reports within the printed precision of the format
+    expected = [
+        replace(
+            r,
+            lat=round(r.lat, 8),
+            lon=round(r.lon, 8),
+            speed_mps=round(r.speed_mps, 3),
+            course_deg=round(r.course_deg, 2),
+        )
+        for r in result.reports
+    ]
+    assert log.reports == expected and log.problems == []
+    assert {r.braking for r in log.reports} == {"none", "service", "emergency"}
+    assert {(r.length_m, r.antenna_offset_m) for r in log.reports} == {(28.0, 5.0)}
+    assert [r.seq for r in log.reports if r.vehicle_id == specs[0].vehicle_id][:3] == [0, 1, 2]
+    # without the optional columns the reports carry the defaults
+    plain = read_replay_csv(result.write_csv(tmp_path / "plain.csv"))
+    assert [r.t for r in plain.reports] == [r.t for r in result.reports]
+    assert {(r.braking, r.length_m, r.seq) for r in plain.reports} == {("none", None, None)}
+
+
+def test_optional_columns_in_any_order_and_empty_cells(tmp_path):
+    p = tmp_path / "log.csv"
+    p.write_text(
+        "vehicle_id,t,lat,lon,speed_mps,course_deg,seq,note,length_m,braking\n"
+        "T1,0,50.06,19.94,5,90,7,x,31.5,service\n"
+        "T1,1,50.06,19.94,5,90,,x,,\n"  # empty cells: not given
+        "T1,2,50.06,19.94,5,90,8\n"  # a short row: the missing cells are not given
+        "T1,3,50.06,19.94,5,90,x,x,31.5,none\n"  # line 5: seq is not an integer
+        "T1,4,50.06,19.94,5,90,9,x,-2,none\n"  # line 6: a negative length
+        "T1,5,50.06,19.94,5,90,9,x,31.5,stopping\n"  # line 7: an unknown brake state
+    )
+    log = read_replay_csv(p)
+    base = VehicleReport("T1", 0.0, 50.06, 19.94, 5.0, 90.0)
+    assert log.reports == [
+        replace(base, seq=7, length_m=31.5, braking="service"),
+        replace(base, t=1.0),
+        replace(base, t=2.0, seq=8),
+    ]
+    assert [pr.line for pr in log.problems] == [5, 6, 7]
+    assert "seq='x' is not an integer" in log.problems[0].reason
+    assert "length_m" in log.problems[1].reason and "braking" in log.problems[2].reason
+
+
+def test_optional_column_named_twice_is_an_error(tmp_path):
+    p = tmp_path / "twice.csv"
+    p.write_text("vehicle_id,t,lat,lon,speed_mps,course_deg,seq,braking,seq\n")
+    with pytest.raises(ReplayError, match="'seq' appears twice"):
+        read_replay_csv(p)
+    with pytest.raises(ValueError, match="twice"):
+        write_replay_csv(tmp_path / "w.csv", [], extra_columns=("seq", "seq"))
+    with pytest.raises(ValueError, match="unknown CSV column"):
+        write_replay_csv(tmp_path / "w.csv", [], extra_columns=("colour",))
 
 
 def test_cycles_group_reports():

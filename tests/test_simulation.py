@@ -12,8 +12,8 @@ import pytest
 import trackmap
 from antikol.analysis.braking import load_profile, stopping_distance
 from antikol.ingest.nmea import read_nmea_file
-from antikol.sim.simulation import (
-    CSV_HEADER,
+from antikol.ingest.replaylog import REPLAY_COLUMNS as CSV_HEADER
+from antikol.sim import (
     DEFAULT_SPEED_MPS,
     GpsModel,
     Route,

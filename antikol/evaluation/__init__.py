@@ -1,1 +1,59 @@
-"""Evaluation tools: scenarios, ground truth, scoring, comparison figures and log replay."""
+"""Evaluation tools: scenarios, ground truth, scoring, positioning accuracy and log replay.
+
+* :mod:`~antikol.evaluation.scenarios` — named, parameterised simulator scenarios;
+* :mod:`~antikol.evaluation.groundtruth` — which vehicle pairs need a warning, from the
+  simulator's true states;
+* :mod:`~antikol.evaluation.scoring` — analysers scored against the ground truth, and the
+  sector rule compared with the track-aware analyser;
+* :mod:`~antikol.evaluation.positioning_accuracy` — track-selective positioning against
+  the true track;
+* :mod:`~antikol.evaluation.replay` — recorded logs replayed through the analyser;
+* :mod:`~antikol.evaluation.figures` — comparison figures. It needs matplotlib (an
+  optional extra), so it is not imported here: import ``antikol.evaluation.figures``.
+"""
+
+from antikol.evaluation.groundtruth import GroundTruth, Passage, analysis_times, ground_truth
+from antikol.evaluation.positioning_accuracy import PositioningScore, positioning_accuracy
+from antikol.evaluation.replay import EVENT_COLUMNS, EventWriter, ReplaySummary, cycles, replay
+from antikol.evaluation.scenarios import (
+    SCENARIOS,
+    Scenario,
+    ScenarioUnavailable,
+    build_scenario,
+    run_scenario,
+)
+from antikol.evaluation.scoring import (
+    AlarmLog,
+    Comparison,
+    Score,
+    compare,
+    format_table,
+    run_analyser,
+    score,
+)
+
+__all__ = [
+    "EVENT_COLUMNS",
+    "SCENARIOS",
+    "AlarmLog",
+    "Comparison",
+    "EventWriter",
+    "GroundTruth",
+    "Passage",
+    "PositioningScore",
+    "ReplaySummary",
+    "Scenario",
+    "ScenarioUnavailable",
+    "Score",
+    "analysis_times",
+    "build_scenario",
+    "compare",
+    "cycles",
+    "format_table",
+    "ground_truth",
+    "positioning_accuracy",
+    "replay",
+    "run_analyser",
+    "run_scenario",
+    "score",
+]

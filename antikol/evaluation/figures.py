@@ -20,6 +20,8 @@ from matplotlib.figure import Figure
 from antikol.evaluation.scoring import Comparison
 from trackmap import TrackMap
 
+__all__ = ["comparison_figure"]
+
 
 def comparison_figure(
     comparison: Comparison,

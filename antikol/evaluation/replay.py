@@ -21,6 +21,8 @@ from antikol.errors import InputFileError
 from antikol.ingest.replaylog import ReplayLog
 from antikol.report import VehicleReport
 
+__all__ = ["EVENT_COLUMNS", "EventWriter", "ReplaySummary", "cycles", "replay"]
+
 logger = logging.getLogger(__name__)
 
 EVENT_COLUMNS = (

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from antikol.sim.simulation import (
+from antikol.sim import (
     GpsModel,
     Route,
     ScriptEvent,
@@ -44,6 +44,27 @@ from antikol.sim.simulation import (
     fleet,
 )
 from trackmap import TrackMap
+
+__all__ = [
+    "SCENARIOS",
+    "Scenario",
+    "ScenarioUnavailable",
+    "build_scenario",
+    "city",
+    "default_gps",
+    "depot_off_map",
+    "diamond_crossing",
+    "following_curve",
+    "following_straight",
+    "leader_behind_curve",
+    "leader_emergency",
+    "merge_at_switch",
+    "oncoming_double_track",
+    "run_scenario",
+    "sharpest_curve",
+    "single_track_head_on",
+    "tunnel_dropout",
+]
 
 logger = logging.getLogger(__name__)
 

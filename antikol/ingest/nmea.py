@@ -69,10 +69,8 @@ the sentences of a skipped epoch all count under the epoch's reason):
 
 Writer
 ------
-:func:`format_rmc`, :func:`format_gga` and :func:`format_vtg` write checksummed sentences
-from a :class:`~antikol.report.VehicleReport` (for tests and the simulator). Printed
-resolution: time 0.01 s, latitude/longitude 0.00001 arc minute, speed 0.001 kn (and 0.001
-km/h), course 0.01 degree, HDOP 0.01.
+:func:`~antikol.ingest.nmea_writer.format_rmc`, ``format_gga`` and ``format_vtg`` live in
+:mod:`antikol.ingest.nmea_writer`; they are re-exported here for existing callers.
 """
 
 from __future__ import annotations
@@ -84,18 +82,29 @@ import re
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from datetime import UTC, date, datetime, time, timedelta
+from datetime import UTC, date, datetime, time
 from pathlib import Path
 from typing import Final, Literal
 
-from pynmeagps import GET, VALCKSUM, NMEAMessage, NMEAReader
+from pynmeagps import VALCKSUM, NMEAMessage, NMEAReader
 from pynmeagps.exceptions import NMEAMessageError, NMEAParseError, NMEATypeError
-from pynmeagps.nmeahelpers import calc_checksum
+from pynmeagps.nmeahelpers import calc_checksum, get_parts
 
-from antikol.errors import InputFileError, InvalidReportError, ProtocolError
+from antikol.errors import InputFileError, InvalidReportError
+from antikol.ingest.nmea_spec import (
+    GNSS_TALKERS,
+    KMH_PER_MPS,
+    KNOT_MPS,
+    MAX_YEAR,
+    MIN_YEAR,
+    UNIX_EPOCH,
+)
+from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.report import MAX_SPEED_MPS, VehicleReport
 from antikol.thresholds import STANDING_SPEED_MPS
 
+# GNSS_TALKERS, KMH_PER_MPS and KNOT_MPS (nmea_spec) and the format_* writers (nmea_writer)
+# are re-exported: they were defined here before the writer moved out.
 __all__ = [
     "FILE_SUFFIXES",
     "GNSS_TALKERS",
@@ -114,12 +123,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: One knot in m/s (exactly 1852 m per hour).
-KNOT_MPS: Final = 1852.0 / 3600.0
-#: km/h per m/s: a speed in km/h is divided by this to get m/s.
-KMH_PER_MPS: Final = 3.6
-#: Talker identifiers of satellite receivers accepted by the reader and the writer.
-GNSS_TALKERS: Final = frozenset({"GP", "GN", "GL", "GA", "GB", "BD", "GQ", "GI"})
 #: File name suffixes read by :func:`read_nmea_directory` (case-insensitive).
 FILE_SUFFIXES: Final = (".nmea", ".txt", ".log")
 #: Default speed below which a missing course is tolerated, m/s.
@@ -145,15 +148,11 @@ SKIP_REASONS: Final[dict[str, str]] = {
 #: Sentence types used, with the fields they need at least (through date, HDOP, km/h unit).
 _MIN_FIELDS: Final = {"RMC": 9, "GGA": 8, "VTG": 8}
 _SENTENCE = re.compile(r"\$(?P<content>[^$*]*)\*(?P<checksum>[0-9A-Fa-f]{2})")
-_HEADER = re.compile(r"(?P<talker>[A-Z][A-Z0-9])(?P<type>[A-Z]{3})")
 _HHMMSS = re.compile(r"\d{6}(?:\.\d{1,6})?")
 _DDMMYY = re.compile(r"\d{6}")
 _NOT_IN_FIELDS = re.compile(r"[\s_]")  # Python's float()/int() would tolerate them
 _DDMM = re.compile(r"(?P<deg>\d{2,3})(?P<min>\d{2}\.\d+)")
 _STRIP = " \t\r\n\x00"
-_EPOCH0 = datetime(1970, 1, 1, tzinfo=UTC)
-_MIN_YEAR, _MAX_YEAR = 1969, 2068  # what a two-digit NMEA year can express
-_POS_MODES = {2: "D", 4: "R", 5: "F", 6: "E"}  # GGA quality -> RMC/VTG mode indicator
 
 
 @dataclass
@@ -392,11 +391,11 @@ class NmeaReader:
             raise _Skip("garbled", "non-ASCII or control characters")
         if calc_checksum(content) != match["checksum"].upper():
             raise _Skip("checksum", f"checksum should be {calc_checksum(content)}")
-        header = _HEADER.fullmatch(content.split(",", 1)[0])
-        if header is None or header["type"] not in _MIN_FIELDS:
+        _, talker, msg_type, _, _ = get_parts(sentence)
+        if msg_type not in _MIN_FIELDS:
             raise _Skip("unsupported", "sentence type not used")
-        if header["talker"] not in GNSS_TALKERS:
-            raise _Skip("unsupported", f"talker {header['talker']} is not a GNSS receiver")
+        if talker not in GNSS_TALKERS:
+            raise _Skip("unsupported", f"talker {talker} is not a GNSS receiver")
         if _NOT_IN_FIELDS.search(content):
             raise _Skip("garbled", "whitespace or '_' in a field")
         try:
@@ -407,9 +406,9 @@ class NmeaReader:
             raise _Skip("garbled", f"unparsable field ({err})") from err
         if msg is None:
             raise _Skip("garbled", "badly formed")
-        if len(msg.payload) < _MIN_FIELDS[header["type"]]:
+        if len(msg.payload) < _MIN_FIELDS[msg_type]:
             raise _Skip("garbled", f"only {len(msg.payload)} fields")
-        return header["type"], msg
+        return msg_type, msg
 
     def _on_rmc(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
         status = getattr(msg, "status", "")
@@ -423,9 +422,9 @@ class NmeaReader:
         day = _rmc_date(msg)
         if tod is None or day is None:
             raise _Skip("no_time", "RMC without valid date and time")
-        if not _MIN_YEAR <= day.year <= _MAX_YEAR:  # pragma: no cover - strptime %y range
+        if not MIN_YEAR <= day.year <= MAX_YEAR:  # pragma: no cover - strptime %y range
             raise _Skip("no_time", f"RMC year {day.year}")
-        t = (datetime.combine(day, tod, tzinfo=UTC) - _EPOCH0).total_seconds()
+        t = (datetime.combine(day, tod, tzinfo=UTC) - UNIX_EPOCH).total_seconds()
         lat = _coordinate(msg, 2, "lat", "NS", 90.0)
         lon = _coordinate(msg, 4, "lon", "EW", 180.0)
         speed = _speed(getattr(msg, "spd", None), "kn", "RMC speed")
@@ -765,201 +764,3 @@ def read_nmea_directory(
     for vehicle_id in sorted(by_vehicle):
         reports[vehicle_id], stats[vehicle_id] = read_nmea_file(by_vehicle[vehicle_id])
     return reports, stats
-
-
-# -------------------------------------------------------------------------- writer
-def format_rmc(
-    report: VehicleReport,
-    *,
-    talker: str = "GN",
-    include_speed: bool = True,
-    include_course: bool = True,
-    void: bool = False,
-) -> str:
-    """Write an RMC sentence (NMEA 4.10 layout) for a report.
-
-    Parameters
-    ----------
-    report : VehicleReport
-        Time ``t`` (seconds since the Unix epoch, UTC, years 1969–2068), position, speed
-        (m/s, printed in knots to 0.001 kn) and course (degrees, printed to 0.01).
-    talker : str, optional
-        Talker identifier, one of :data:`GNSS_TALKERS` (default ``"GN"``).
-    include_speed, include_course : bool, optional
-        Leave the speed or course field empty when false (as receivers do when stopped).
-    void : bool, optional
-        Write status ``V`` and mode ``N`` (no fix).
-
-    Returns
-    -------
-    str
-        The sentence ``$..RMC,...*hh`` without line terminator.
-
-    Raises
-    ------
-    ProtocolError
-        Unknown talker, or ``t`` outside the years a two-digit NMEA year can express.
-    """
-    hhmmss, ddmmyy = _utc_fields(report.t)
-    lat, ns, lon, ew = _position_fields(report.lat, report.lon)
-    speed = f"{report.speed_mps / KNOT_MPS:.3f}" if include_speed else ""
-    course = f"{report.course_deg:.2f}" if include_course else ""
-    status, mode = ("V", "N") if void else ("A", _POS_MODES.get(report.fix_quality or 1, "A"))
-    payload = [hhmmss, status, lat, ns, lon, ew, speed, course, ddmmyy, "", "", mode, "V"]
-    return _build(talker, "RMC", payload)
-
-
-def format_gga(
-    report: VehicleReport,
-    *,
-    talker: str = "GN",
-    fix_quality: int | None = None,
-    hdop: float | None = None,
-    num_satellites: int = 12,
-    altitude_m: float = 0.0,
-) -> str:
-    """Write a GGA sentence for a report.
-
-    Parameters
-    ----------
-    report : VehicleReport
-        Time ``t`` (seconds since the Unix epoch, UTC) and position.
-    talker : str, optional
-        Talker identifier, one of :data:`GNSS_TALKERS` (default ``"GN"``).
-    fix_quality : int, optional
-        Fix quality 0–9; default the report's ``fix_quality``, else 1 (GPS fix).
-    hdop : float, optional
-        Horizontal dilution of precision, printed to 0.01; default the report's ``hdop``,
-        else 1.0.
-    num_satellites : int, optional
-        Satellites used, 0–99 (default 12).
-    altitude_m : float, optional
-        Antenna altitude above mean sea level, metres, printed to 0.1 (default 0).
-
-    Returns
-    -------
-    str
-        The sentence ``$..GGA,...*hh`` without line terminator.
-
-    Raises
-    ------
-    ProtocolError
-        Unknown talker, a value out of range, or ``t`` outside 1969–2068.
-    """
-    quality = fix_quality if fix_quality is not None else (report.fix_quality or 1)
-    dop = hdop if hdop is not None else (report.hdop if report.hdop is not None else 1.0)
-    if isinstance(quality, bool) or not isinstance(quality, int) or not 0 <= quality <= 9:
-        raise ProtocolError(f"GGA fix quality must be an int 0..9, got {quality!r}")
-    if not (math.isfinite(dop) and 0.0 <= dop < 1000.0):
-        raise ProtocolError(f"GGA hdop must be in [0, 1000), got {dop!r}")
-    if (
-        isinstance(num_satellites, bool)
-        or not isinstance(num_satellites, int)
-        or not 0 <= num_satellites <= 99
-    ):
-        raise ProtocolError(f"GGA satellite count must be 0..99, got {num_satellites!r}")
-    if not math.isfinite(altitude_m):
-        raise ProtocolError(f"GGA altitude must be finite, got {altitude_m!r}")
-    hhmmss, _ = _utc_fields(report.t)
-    lat, ns, lon, ew = _position_fields(report.lat, report.lon)
-    payload = [
-        hhmmss,
-        lat,
-        ns,
-        lon,
-        ew,
-        str(quality),
-        f"{num_satellites:02d}",
-        f"{dop:.2f}",
-        f"{altitude_m:.1f}",
-        "M",
-        "0.0",
-        "M",
-        "",
-        "",
-    ]
-    return _build(talker, "GGA", payload)
-
-
-def format_vtg(
-    report: VehicleReport,
-    *,
-    talker: str = "GN",
-    include_course: bool = True,
-    units: Literal["both", "knots", "kmh"] = "both",
-) -> str:
-    """Write a VTG sentence (course and speed) for a report.
-
-    Parameters
-    ----------
-    report : VehicleReport
-        Speed (m/s, printed to 0.001 kn and 0.001 km/h) and course (degrees, to 0.01).
-    talker : str, optional
-        Talker identifier, one of :data:`GNSS_TALKERS` (default ``"GN"``).
-    include_course : bool, optional
-        Leave the course field empty when false.
-    units : {"both", "knots", "kmh"}, optional
-        Which speed fields to fill (default both).
-
-    Returns
-    -------
-    str
-        The sentence ``$..VTG,...*hh`` without line terminator.
-
-    Raises
-    ------
-    ProtocolError
-        Unknown talker or units.
-    """
-    if units not in ("both", "knots", "kmh"):
-        raise ProtocolError(f"VTG units must be 'both', 'knots' or 'kmh', got {units!r}")
-    course = f"{report.course_deg:.2f}" if include_course else ""
-    knots = f"{report.speed_mps / KNOT_MPS:.3f}" if units != "kmh" else ""
-    kmh = f"{report.speed_mps * KMH_PER_MPS:.3f}" if units != "knots" else ""
-    mode = _POS_MODES.get(report.fix_quality or 1, "A")
-    payload = [course, "T", "", "M", knots, "N", kmh, "K", mode]
-    return _build(talker, "VTG", payload)
-
-
-def _utc_fields(t: float) -> tuple[str, str]:
-    """``hhmmss.ss`` and ``ddmmyy`` of Unix time ``t`` rounded to 0.01 s."""
-    if not math.isfinite(t):
-        raise ProtocolError(f"cannot write time t={t!r}")
-    centis = round(t * 100.0)
-    try:
-        stamp = _EPOCH0 + timedelta(seconds=centis // 100, milliseconds=10 * (centis % 100))
-    except OverflowError as err:
-        raise ProtocolError(f"cannot write time t={t!r}: {err}") from err
-    if not _MIN_YEAR <= stamp.year <= _MAX_YEAR:
-        raise ProtocolError(
-            f"t={t!r} is in {stamp.year}; NMEA two-digit years cover {_MIN_YEAR}-{_MAX_YEAR}"
-        )
-    return (
-        f"{stamp:%H%M%S}.{stamp.microsecond // 10_000:02d}",
-        f"{stamp:%d%m%y}",
-    )
-
-
-def _position_fields(lat: float, lon: float) -> tuple[str, str, str, str]:
-    return (
-        _ddmm(lat, 2),
-        "S" if lat < 0 else "N",
-        _ddmm(lon, 3),
-        "W" if lon < 0 else "E",
-    )
-
-
-def _ddmm(degrees: float, width: int) -> str:
-    """``(d)ddmm.mmmmm`` of ``|degrees|``, rounded to 0.00001 arc minute."""
-    units = round(abs(degrees) * 60.0 * 100_000)  # 1e-5 arc minutes, exact integer
-    whole, rest = divmod(units, 60 * 100_000)
-    minutes, fraction = divmod(rest, 100_000)
-    return f"{whole:0{width}d}{minutes:02d}.{fraction:05d}"
-
-
-def _build(talker: str, msg_type: str, payload: list[str]) -> str:
-    if talker not in GNSS_TALKERS:
-        raise ProtocolError(f"talker must be one of {sorted(GNSS_TALKERS)}, got {talker!r}")
-    # pynmeagps checks each field against the sentence definition and adds the checksum.
-    message = NMEAMessage(talker, msg_type, GET, payload=payload)
-    return str(message.serialize().decode("ascii")).rstrip("\r\n")
