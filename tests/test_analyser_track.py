@@ -10,11 +10,15 @@ import pytest
 
 import trackmap
 from antikol.analysis import braking
-from antikol.analysis.analyser import Analyser
+from antikol.analysis.analyser import Analyser, AnalyserConfig
 from tests._osm import FRAME, OsmBuilder, diamond_fixture, switch_fixture
 from tests._paths import interleave, reports_along
 
 TRAM = braking.load_profile("tram")
+#: The bare rules: no margins for position uncertainty or anticipation.
+BARE = AnalyserConfig(gap_margin_sigmas=0.0, anticipation_s=0.0)
+#: Vehicles with reported ends: 20 m long, antenna in the middle.
+ENDS = {"length_m": 20.0, "antenna_offset_m": 10.0}
 
 
 def build(b: OsmBuilder, tmp_path) -> trackmap.TrackMap:
@@ -47,17 +51,19 @@ def test_following_around_a_sharp_curve(tmp_path):
     t = np.arange(0.0, 12.0, 0.5)
     curve_len = math.pi * 20.0 / 2.0
     leader_at = 200.0 + curve_len + 10.0  # stopped 10 m past the curve
-    leader = reports_along("B", pts, start_m=leader_at, speed_mps=0.0, t=t, frame=FRAME)
-    follower = reports_along("A", pts, start_m=100.0, speed_mps=9.0, t=t, frame=FRAME)
-    states, _ = run(net, leader, follower)
-    warn = braking.rear_end_distance(9.0, 0.0, TRAM, TRAM)
-    timely = [tt for tt, (_, tr) in states.items() if leader_at - (100 + 9 * tt) <= warn - 1.0]
+    leader = reports_along("B", pts, start_m=leader_at, speed_mps=0.0, t=t, frame=FRAME, **ENDS)
+    follower = reports_along("A", pts, start_m=100.0, speed_mps=9.0, t=t, frame=FRAME, **ENDS)
+    states, _ = run(net, leader, follower, config=BARE)
+    warn = braking.warning_distance(9.0, TRAM)
+    # the gap is between the follower's front and the leader's rear (10 m from each antenna)
+    timely = [tt for tt, (_, tr) in states.items() if leader_at - (100 + 9 * tt) - 20 <= warn - 1]
     assert timely, "the scenario must reach the warning distance"
     for tt in timely:
         _sec, tr = states[tt]
         assert tr.lamp and tr.primary.kind == "rear_end" and tr.primary.method == "track"
         assert tr.primary.vehicle_id == "B"
-        assert tr.primary.distance_m == pytest.approx(leader_at - (100 + 9 * tt), abs=1.0)
+        assert tr.primary.distance_m == pytest.approx(leader_at - (100 + 9 * tt) - 20, abs=1.0)
+        assert (tr.primary.own_ends, tr.primary.other_ends) == ("reported", "reported")
     # before the curve the leader is 45 degrees off the course: the paper's rule is blind
     first = timely[0]
     assert not states[first][0].lamp
@@ -98,16 +104,18 @@ def test_head_on_on_single_track(tmp_path):
     b.line(line)  # untagged single track: both directions
     net = build(b, tmp_path)
     t = np.arange(0.0, 58.0, 0.25)
-    a = reports_along("A", line, start_m=50.0, speed_mps=10.0, t=t, frame=FRAME)
-    bb = reports_along("B", line, start_m=50.0, speed_mps=8.0, t=t, frame=FRAME, reverse=True)
+    a = reports_along("A", line, start_m=50.0, speed_mps=10.0, t=t, frame=FRAME, **ENDS)
+    bb = reports_along(
+        "B", line, start_m=50.0, speed_mps=8.0, t=t, frame=FRAME, reverse=True, **ENDS
+    )
     for own, v_own, v_other in (("A", 10.0, 8.0), ("B", 8.0, 10.0)):
-        states, _ = run(net, a, bb, own=own)
-        gap = {tt: 1100.0 - 18.0 * tt for tt in states}
+        states, _ = run(net, a, bb, own=own, config=BARE)
+        gap = {tt: 1100.0 - 18.0 * tt - 20.0 for tt in states}  # front to front
         warn = braking.head_on_distance(v_own, v_other, TRAM, TRAM)
         first_track = min(tt for tt, (_, tr) in states.items() if tr.lamp)
         assert gap[first_track] == pytest.approx(warn, abs=18.0 * 0.25 + 1.0)
         first_sector = min(tt for tt, (s, _) in states.items() if s.lamp)
-        assert gap[first_sector] == pytest.approx(300.0, abs=2 * 18.0 * 0.25)
+        assert gap[first_sector] + 20.0 == pytest.approx(300.0, abs=2 * 18.0 * 0.25)
         th = states[first_track][1].primary
         assert th.kind == "head_on" and th.closing_speed_mps == pytest.approx(18.0, abs=0.5)
         assert th.ttc_s == pytest.approx(gap[first_track] / 18.0, abs=1.0)
@@ -163,18 +171,20 @@ def test_branch_off_the_planned_route_is_advisory(tmp_path):
     straight = next(e for e in net.edges if e.way_ids == (2,))
     branch_pts = [(0.0, 0.0), (1.0, 10.0), (4.0, 20.0), (9.0, 30.0), (30.0, 55.0), (80.0, 80.0)]
     t = np.arange(0.0, 4.0, 0.5)
-    stopped = reports_along("B", branch_pts, start_m=60.0, speed_mps=0.0, t=t, frame=FRAME)
+    # B moves slowly away from the switch on the branch: its direction is known
+    stopped = reports_along("B", branch_pts, start_m=60.0, speed_mps=3.0, t=t, frame=FRAME)
     approach = [(0.0, -200.0), (0.0, 0.0)]
-    for route, expected in (((trunk.edge_id, straight.edge_id), "advisory"), (None, "warning")):
+    for route, expected in (((trunk.edge_id, straight.edge_id), "advisory"), (None, "alarm")):
         a = reports_along(
-            "A", approach, start_m=150.0, speed_mps=11.0, t=t, frame=FRAME, route=route
+            "A", approach, start_m=150.0, speed_mps=8.0, t=t, frame=FRAME, route=route
         )
         states, an = run(net, a, stopped)
         last = states[max(states)][1]
-        assert last.level == expected
+        # without a route the lamp is on while A can still take the branch at its speed
+        assert any(tr.lamp for _, tr in states.values()) == (expected == "alarm")
         assert last.primary.zone == "right"
         roles = {z.label: z.role for z in an.zones("A")}
-        assert roles == {"straight": "warning", "right": expected}
+        assert roles == {"straight": "warning", "right": "advisory" if route else "warning"}
 
 
 def test_vehicle_off_the_map_falls_back_to_the_sector_rule(tmp_path):

@@ -1,64 +1,75 @@
 """The analyser: one object that takes reports and answers "what threatens vehicle X?".
 
 Without a map the analyser runs the 2008 paper's sector rule for every pair: every threat
-has ``method='sector'`` and level ``warning`` (the paper's lamp).
+has ``method='sector'`` and level ``warning`` (the paper's lamp), exactly as published.
 
 With a map (``Analyser(track_map=net)``) it implements the paper's next generation:
 
-1. every vehicle is positioned on the tracks (:mod:`antikol.positioning.matcher`);
+1. every vehicle is positioned on the tracks (:mod:`antikol.positioning`);
 2. the own sensitivity area follows the track ahead up to a horizon from the braking model
    (never shorter than the paper's 300 m unless configured) and splits into one **zone**
-   per branch at facing switches; with a known planned route only the routed zone can
-   raise a ``warning``, the others are ``advisory``;
-3. conflicts with every other matched vehicle are found along those zones:
-   ``rear_end`` (the other is ahead on a zone, running the same way), ``head_on`` (ahead,
-   running towards us), ``merge`` (our zones and the other's meet in the fouling area of a
-   switch from different branches) and ``crossing`` (both reach the same crossing conflict
-   point), the last two only when the arrival windows overlap;
-4. levels follow the braking model (:func:`antikol.analysis.braking.classify`);
-5. when a match is ambiguous every combination of hypotheses is evaluated and a threat is
-   raised when the probability of conflict reaches ``conflict_probability`` (err towards
-   warning);
+   per branch at facing switches; with a planned route the vehicle takes one zone, without
+   one every option of a facing switch is equally likely;
+3. conflicts with every other matched vehicle are found along those zones by the rules of
+   :mod:`antikol.analysis.conflicts` — ``rear_end``, ``head_on``, ``merge``, ``crossing`` —
+   between vehicle **ends**, placed by :mod:`antikol.analysis.ends` when a report lacks them;
+4. every combination of the two vehicles' match hypotheses and of the own zones is weighed
+   by its probability; a ``warning`` needs the probability of a warning-level conflict to
+   reach ``warning_probability``, otherwise the conflict is ``advisory``; a hypothesis of
+   wrong-way running counts for more than an advisory only on sustained evidence;
+5. each pair's alarm has hysteresis (:mod:`antikol.analysis.alarms`): raised at the warning
+   distance, held while the gap still closes, released when the conflict is clearly over;
 6. a vehicle the sector rule would flag but that has no conflict on the map is listed in
    ``Assessment.suppressed`` with the reason (e.g. ``parallel_track``);
 7. a pair where either vehicle is unmatched or lost falls back to the sector rule
-   (``method='sector'``). Nothing is dropped silently.
+   (``method='sector'``). Nothing is dropped silently, and nothing a vehicle reports makes
+   the analyser raise: a report that cannot be positioned is counted in :attr:`stats`.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections import defaultdict
+from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 import shapely
 
 from antikol.analysis import braking
+from antikol.analysis.alarms import AlarmBook, AlarmPolicy
 from antikol.analysis.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
-from antikol.analysis.braking import BrakingProfile
+from antikol.analysis.branches import BranchSettings
+from antikol.analysis.conflicts import Finding, RuleSettings, at_conflict, on_path
 from antikol.analysis.geometry import closing_speed_mps
+from antikol.analysis.profiles import BrakingProfile, load_profile
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
-from antikol.errors import UnknownVehicleError
-from antikol.kinds import Level, level_rank
-from antikol.positioning.matcher import (
-    DiscreteFix,
-    FixPoint,
-    Positioner,
-    PositioningConfig,
-    TrackPosition,
+from antikol.analysis.views import (
+    CycleViews,
+    HypothesisView,
+    VehicleView,
+    ViewSettings,
+    build_views,
 )
+from antikol.errors import InvalidArgumentError, UnknownVehicleError
+from antikol.ingest.nmea import NmeaReader
+from antikol.ingest.protocol import DecoderStats, StreamDecoder
+from antikol.kinds import Level, Method, level_rank
+from antikol.positioning.config import PositioningConfig
+from antikol.positioning.matcher import Positioner
+from antikol.positioning.records import DiscreteFix, FixPoint, TrackPosition
 from antikol.report import VehicleReport
 from antikol.table import TableUpdate, VehicleTable
 from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
+from trackmap import Path, TrackMap
 
-if TYPE_CHECKING:
-    from trackmap import Path, TrackMap
+__all__ = ["Analyser", "AnalyserConfig", "Zone"]
 
 logger = logging.getLogger(__name__)
+
+_ALARM_LEVELS = ("warning", "emergency")
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,34 +80,84 @@ class AnalyserConfig:
     ----------
     min_horizon_m : float
         Shortest look-ahead along the track, m (the paper's d_col by default).
-    conflict_probability : float
-        A conflict is raised when its probability over the match hypotheses reaches this.
+    warning_probability : float
+        A conflict raises more than an advisory when the probability of a warning-level
+        conflict over the match hypotheses and zones reaches this ...
+    emergency_probability : float
+        ... or when the probability of an emergency-level conflict reaches this (the
+        graver the consequence, the less probability it takes).
     max_hypotheses : int
-        Hypotheses per vehicle evaluated in ambiguous cases.
+        Hypotheses per vehicle evaluated.
     min_hypothesis_probability : float
         Hypotheses less probable than this are not evaluated.
+    wrong_way_evidence_s : float
+        A hypothesis of running against a one-way track raises more than an advisory only
+        after this long of consistent evidence, s.
     window_slack_s : float
-        Arrival windows at merges and crossings overlap when closer than this, s.
+        Merges and crossings: slack between the other vehicle's earliest arrival and the
+        own clearing time, s.
+    merge_accel_mps2, merge_max_speed_mps : float
+        Merges and crossings: how the other vehicle's earliest arrival is computed
+        (acceleration from its current speed, standing or not, up to a speed), m/s², m/s.
     stopped_speed_mps : float
-        Below this speed a vehicle is treated as standing, m/s.
+        Below this speed a moving vehicle is taken to stand, m/s ...
+    start_speed_mps : float
+        ... and above this a standing one to move again, m/s (hysteresis: the speed over
+        ground of a standing receiver wanders).
+    closing_speed_mps : float
+        A gap closing slower than this does not need action now, m/s.
+    gap_margin_sigmas : float
+        Gaps are shortened by this many standard deviations of both vehicles' positions and
+        ends before the level is chosen (err towards warning).
+    anticipation_s : float
+        Gaps are also shortened by this many seconds of closing: the warning is on before
+        the limit is crossed, not a cycle after.
+    rear_end_model : {"on_sight", "moving_leader"}
+        ``on_sight`` (default): a closing follower must be able to stop before the leader as
+        before a standing obstacle (trams run on sight; a leader can stop abruptly).
+        ``moving_leader``: credit the leader's own braking distance (CBTC).
+    hysteresis : bool
+        Hold and release pair alarms by :attr:`alarms` (track method).
+    alarms : AlarmPolicy
+    branches : BranchSettings
+        How the branch a vehicle takes at a facing switch is weighed without a route.
     corridor_half_width_m : float
         Half-width of the corridor polygons drawn for zones, m.
     parallel_distance_m : float
         A suppressed vehicle this close to a zone counts as on a parallel track, m.
-    gap_margin_sigmas : float
-        Gaps are shortened by this many standard deviations of the combined along-track
-        uncertainty of both positions before the level is chosen (err towards warning).
     """
 
     min_horizon_m: float = MIN_HORIZON_M
-    conflict_probability: float = 0.2
+    warning_probability: float = 0.3
+    emergency_probability: float = 0.1
     max_hypotheses: int = 3
     min_hypothesis_probability: float = 0.01
-    window_slack_s: float = 5.0
+    wrong_way_evidence_s: float = 10.0
+    window_slack_s: float = 3.0
+    merge_accel_mps2: float = 1.0
+    merge_max_speed_mps: float = 14.0
     stopped_speed_mps: float = STANDING_SPEED_MPS
+    start_speed_mps: float = 1.0
+    closing_speed_mps: float = 0.3
+    gap_margin_sigmas: float = 2.0
+    anticipation_s: float = 2.0
+    rear_end_model: Literal["on_sight", "moving_leader"] = "on_sight"
+    hysteresis: bool = True
+    alarms: AlarmPolicy = field(default_factory=AlarmPolicy)
+    branches: BranchSettings = field(default_factory=BranchSettings)
     corridor_half_width_m: float = 1.7
     parallel_distance_m: float = 10.0
-    gap_margin_sigmas: float = 2.0
+
+    def __post_init__(self) -> None:
+        for name in ("warning_probability", "emergency_probability", "min_hypothesis_probability"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")
+        if self.max_hypotheses < 1:
+            raise InvalidArgumentError("max_hypotheses", self.max_hypotheses, "must be >= 1")
+        if self.rear_end_model not in ("on_sight", "moving_leader"):
+            raise InvalidArgumentError(
+                "rear_end_model", self.rear_end_model, "must be 'on_sight' or 'moving_leader'"
+            )
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,7 +174,8 @@ class Zone:
     corridor : shapely.Polygon
         The corridor along the path in the map's local frame (metres).
     probability : float
-        Probability of the own match hypothesis the zone starts from.
+        Probability of the own match hypothesis the zone starts from, times the
+        probability of taking this branch.
     """
 
     label: str
@@ -123,40 +185,15 @@ class Zone:
     probability: float
 
 
-@dataclass
-class _Hyp:
-    edge_id: int
-    direction: int
-    offset_m: float
-    probability: float
-    wrong_way: bool
-    paths: list[Path]
+@dataclass(slots=True)
+class _PairResult:
+    """The outcome of one pair's evaluation."""
 
-
-@dataclass
-class _View:
-    """Everything about one vehicle at one analysis time."""
-
-    report: VehicleReport
-    position: TrackPosition | None
-    speed_mps: float
-    horizon_m: float
-    hyps: list[_Hyp] = field(default_factory=list)
-
-    @property
-    def matched(self) -> bool:
-        return self.position is not None and self.position.matched
-
-
-@dataclass
-class _Candidate:
-    kind: str
     level: Level
-    gap_m: float
-    closing_mps: float
-    ttc_s: float | None
-    zone: str | None
-    detail: str
+    finding: Finding
+    probability: float
+    hold: bool
+    ambiguous: bool
 
 
 class Analyser:
@@ -205,9 +242,10 @@ class Analyser:
         self.track_map = track_map
         self.sector = sector if sector is not None else SectorRule()
         self.own_id = own_id
-        table_capacity = (
-            (TABLE_CAPACITY if own_id is not None else None) if capacity == "auto" else capacity
-        )
+        if capacity == "auto":
+            table_capacity: int | None = TABLE_CAPACITY if own_id is not None else None
+        else:
+            table_capacity = capacity
         self.expiry_s = float(expiry_s)
         # Control-room use emulates every vehicle's own unit: a vehicle that falls silent (GPS
         # lost in a tunnel) keeps being assessed on its dead-reckoned position, while the
@@ -217,7 +255,7 @@ class Analyser:
             retain = max(retain, (positioning or PositioningConfig()).dead_reckoning_s)
         self.table = VehicleTable(capacity=table_capacity, expiry_s=retain, own_id=own_id)
         self.courses = CourseKeeper(min_speed_mps=self.sector.min_speed_for_course_mps)
-        self.profile = profile if profile is not None else braking.load_profile("tram")
+        self.profile = profile if profile is not None else load_profile("tram")
         self.profiles = dict(profiles or {})
         self.config = config or AnalyserConfig()
         self.positioner = (
@@ -225,14 +263,36 @@ class Analyser:
             if track_map is not None
             else None
         )
-        self._views: dict[str, _View] = {}
-        self._views_time: float | None = None
-        self._edge_index: dict[int, list[tuple[str, int]]] = {}
-        self._conflict_index: dict[int, list[tuple[str, int, Path, float, int, int]]] = {}
-        self._decoder: Any = None
-        self._nmea: Any = None
+        c = self.config
+        self._view_settings = ViewSettings(
+            c.min_horizon_m,
+            c.max_hypotheses,
+            c.min_hypothesis_probability,
+            c.wrong_way_evidence_s,
+            c.stopped_speed_mps,
+            c.branches,
+        )
+        self._rules = RuleSettings(
+            c.stopped_speed_mps,
+            c.closing_speed_mps,
+            c.gap_margin_sigmas,
+            c.anticipation_s,
+            c.merge_accel_mps2,
+            c.merge_max_speed_mps,
+            c.window_slack_s,
+            c.rear_end_model,
+        )
+        #: Alarm states of every pair (track method).
+        self.alarms = AlarmBook(c.alarms)
+        #: What went wrong with reports (counted, never raised).
+        self.stats: Counter[str] = Counter()
+        self._cycle: CycleViews | None = None
+        self._cycle_version = -1
         self._version = 0
-        self._index_version = -1
+        self._decoder: StreamDecoder | None = None
+        self._nmea: NmeaReader | None = None
+        self._last_threats: dict[tuple[str, str], Threat] = {}
+        self._moving: dict[str, bool] = {}
 
     # -- input ---------------------------------------------------------------------------
     def update(self, report: VehicleReport) -> TableUpdate:
@@ -243,18 +303,24 @@ class Analyser:
         TableUpdate
             What the vehicle table did with it.
         """
-        result = self._table_update(report)
-        if result.accepted and self.positioner is not None:
-            self.positioner.update(report)
-        return result
+        return self.update_many([report])[0]
 
     def update_many(self, reports: Sequence[VehicleReport]) -> list[TableUpdate]:
-        """Feed many reports at once (one analysis cycle of a fleet); positions are
-        matched with one vectorised candidate search."""
+        """Feed many reports at once (one analysis cycle of a fleet); positions are matched
+        with one vectorised update. One report the positioning cannot use never stops the
+        others: it is counted in :attr:`stats` and the vehicle keeps its previous state."""
         results = [self._table_update(r) for r in reports]
         if self.positioner is not None:
             accepted = [r for r, res in zip(reports, results, strict=True) if res.accepted]
-            self.positioner.update_many(accepted)
+            try:
+                self.positioner.update_many(accepted, outputs=False)
+            except Exception:  # one at a time, to find and count the culprit
+                for r in accepted:
+                    try:
+                        self.positioner.update_many([r], outputs=False)
+                    except Exception:
+                        self.stats["positioning_error"] += 1
+                        logger.exception("positioning failed on a report of %s", r.vehicle_id)
         return results
 
     def feed_bytes(self, chunk: bytes) -> list[TableUpdate]:
@@ -262,31 +328,32 @@ class Analyser:
 
         Rejected frames are counted in :attr:`decoder_stats`; this never raises.
         """
-        from antikol.ingest.protocol import StreamDecoder
-
         if self._decoder is None:
             self._decoder = StreamDecoder()
-        return self.update_many(self._decoder.feed(chunk))
+        try:
+            return self.update_many(self._decoder.feed(chunk))
+        except Exception:
+            self.stats["feed_error"] += 1
+            logger.exception("radio input could not be processed")
+            return []
 
     @property
-    def decoder_stats(self) -> Any:
+    def decoder_stats(self) -> DecoderStats | None:
         """Statistics of the radio stream decoder (None before :meth:`feed_bytes`)."""
         return None if self._decoder is None else self._decoder.stats
 
     def feed_nmea(self, line: str | bytes) -> list[TableUpdate]:
         """Feed one NMEA 0183 line of the own receiver (needs ``own_id``)."""
-        from antikol.ingest.nmea import NmeaReader
-
         if self.own_id is None:
-            raise ValueError("feed_nmea() needs the analyser's own_id")
+            raise InvalidArgumentError("own_id", None, "feed_nmea() needs the analyser's own_id")
         if self._nmea is None:
             self._nmea = NmeaReader(self.own_id)
-        return [self.update(r) for r in self._nmea.feed_line(line)]
+        return self.update_many(self._nmea.feed_line(line))
 
     def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:
         """Apply a discrete position fix (balise, loop crossing) to a vehicle."""
         if self.positioner is None:
-            raise ValueError("discrete fixes need a track map")
+            raise InvalidArgumentError("track_map", None, "discrete fixes need a track map")
         self._version += 1
         return self.positioner.fix(vehicle_id, fix)
 
@@ -298,13 +365,20 @@ class Analyser:
             self._forget(result.evicted)
         if result.accepted:
             self.courses.update(report)
+            was = self._moving.get(report.vehicle_id, False)
+            limit = self.config.stopped_speed_mps if was else self.config.start_speed_mps
+            self._moving[report.vehicle_id] = report.speed_mps >= limit
             self._version += 1
         return result
 
     def _forget(self, vehicle_id: str) -> None:
         self.courses.forget(vehicle_id)
+        self._moving.pop(vehicle_id, None)
         if self.positioner is not None:
             self.positioner.forget(vehicle_id)
+        self.alarms.forget(vehicle_id)
+        for key in [k for k in self._last_threats if vehicle_id in k]:
+            del self._last_threats[key]
         self._version += 1
 
     # -- output --------------------------------------------------------------------------
@@ -358,39 +432,56 @@ class Analyser:
         others = [r for r in self.table.others(vid) if now - r.t <= self.expiry_s]
         hits = self._sector_hits(own, others)
         if self.track_map is None:
-            plain = [self._sector_threat(own, self.table.get(h.vehicle_id), h) for h in hits]
+            plain = [self._sector_threat(own, self._report(h.vehicle_id), h) for h in hits]
             return self._assessment(vid, now, plain, [], "sector")
-        self._refresh(now)
-        own_view = self._views[vid]
-        hit_by_id = {h.vehicle_id: h for h in hits}
+        cycle = self._refresh(now)
+        own_view = cycle.views[vid]
         threats: list[Threat] = []
         suppressed: list[Suppressed] = []
+        seen: set[str] = set()
         if not own_view.matched:
             for h in hits:
-                other = self.table.get(h.vehicle_id)
-                assert other is not None
-                threats.append(self._sector_threat(own, other, h, note="own vehicle not matched"))
+                th = self._sector_threat(
+                    own, self._report(h.vehicle_id), h, note="own vehicle not matched"
+                )
+                threats.append(self._alarm(vid, h.vehicle_id, now, th, raise_now=True, hold=False))
+                seen.add(h.vehicle_id)
+            threats.extend(self._released(vid, now, seen))
             return self._assessment(vid, now, threats, [], "sector")
-        for ovid in self._track_candidates(vid, own_view) | set(hit_by_id):
-            ov = self._views.get(ovid)
+        hit_by_id = {h.vehicle_id: h for h in hits}
+        for ovid in sorted(self._candidates(cycle, own_view) | set(hit_by_id)):
+            ov = cycle.views.get(ovid)
             if ov is None or now - ov.report.t > self.expiry_s:
                 continue
             hit = hit_by_id.get(ovid)
             if not ov.matched:
                 if hit is not None:
                     state = ov.position.status if ov.position is not None else "unmatched"
-                    threats.append(
-                        self._sector_threat(own, ov.report, hit, note=f"other vehicle {state}")
-                    )
+                    th = self._sector_threat(own, ov.report, hit, note=f"other vehicle {state}")
+                    threats.append(self._alarm(vid, ovid, now, th, raise_now=True, hold=False))
+                    seen.add(ovid)
                 continue
-            threat, reason = self._track_threat(own_view, ov)
-            if threat is not None:
-                threats.append(threat)
-            elif hit is not None:
-                suppressed.append(
-                    Suppressed(ovid, reason or "not_reachable", hit.distance_m, hit.bearing_deg)
+            result = self._pair(cycle, own_view, ov)
+            if result is None:
+                if hit is not None:
+                    reason = self._suppression_reason(cycle, own_view, ov)
+                    suppressed.append(Suppressed(ovid, reason, hit.distance_m, hit.bearing_deg))
+                continue
+            th = self._track_threat(own_view, ov, result)
+            threats.append(
+                self._alarm(
+                    vid,
+                    ovid,
+                    now,
+                    th,
+                    raise_now=result.level in _ALARM_LEVELS,
+                    hold=result.hold,
                 )
-        return self._assessment(vid, now, threats, suppressed, "track")
+            )
+            seen.add(ovid)
+        threats.extend(self._released(vid, now, seen))
+        shown = [th for th in threats if th.level != "none"]
+        return self._assessment(vid, now, shown, suppressed, "track")
 
     def zones(self, own_id: str | None = None, *, t: float | None = None) -> list[Zone]:
         """The zones of the own sensitivity area with their corridor polygons (local frame).
@@ -400,29 +491,89 @@ class Analyser:
         vid = own_id if own_id is not None else self.own_id
         if vid is None or self.track_map is None or vid not in self.table:
             return []
-        self._refresh(self.table.clock if t is None else float(t))
-        view = self._views[vid]
+        view = self._refresh(self.table.clock if t is None else float(t)).views[vid]
         if not view.matched:
             return []
         out = []
         for h in view.hyps:
-            for p in h.paths:
+            for p, pi in zip(h.paths, h.path_probability, strict=True):
                 line = self.track_map.path_geometry(p)
                 out.append(
                     Zone(
                         label=p.zone,
-                        role=self._zone_role(view.report, p),
+                        role="warning" if pi > 0.0 else "advisory",
                         path=p,
                         corridor=line.buffer(self.config.corridor_half_width_m, cap_style="flat"),
-                        probability=h.probability,
+                        probability=h.probability * pi,
                     )
                 )
         return out
+
+    # -- alarms and threats --------------------------------------------------------------
+    def _alarm(
+        self, own: str, other: str, t: float, threat: Threat, *, raise_now: bool, hold: bool
+    ) -> Threat:
+        """Pass a threat through its pair's hysteresis; a held alarm shows as a warning."""
+        if not self.config.hysteresis or self.track_map is None:
+            return threat
+        on = self.alarms.step(own, other, t, raise_now=raise_now, hold=hold)
+        if on and threat.level not in _ALARM_LEVELS:
+            threat = replace(threat, level="warning", held=True, detail=threat.detail + " (held)")
+        self._last_threats[(own, other)] = threat
+        return threat
+
+    def _released(self, own: str, t: float, seen: set[str]) -> list[Threat]:
+        """Alarms of pairs not evaluated this time: released once their minimum time is up,
+        shown (held) until then."""
+        if not self.config.hysteresis or self.track_map is None:
+            return []
+        out = []
+        for other in self.alarms.active(own):
+            if other in seen:
+                continue
+            if self.alarms.step(own, other, t, raise_now=False, hold=False):
+                last = self._last_threats.get((own, other))
+                if last is not None:
+                    out.append(replace(last, held=True))
+        return out
+
+    def _track_threat(self, own: VehicleView, other: VehicleView, result: _PairResult) -> Threat:
+        f = result.finding
+        if own.position is None or other.position is None:  # pragma: no cover - matched
+            raise RuntimeError("track threat without positions")
+        detail = f.detail
+        if result.ambiguous:
+            detail += f" (conflict probability {result.probability:.2f})"
+        return Threat(
+            vehicle_id=other.vehicle_id,
+            kind=f.kind,
+            level=result.level,
+            distance_m=f.gap_m,
+            closing_speed_mps=f.closing_mps,
+            ttc_s=f.ttc_s,
+            method="track",
+            zone=f.zone,
+            probability=min(result.probability, 1.0),
+            own_match_probability=own.position.probability,
+            other_match_probability=other.position.probability,
+            ambiguous=result.ambiguous,
+            detail=detail,
+            own_ends=own.ends.assumption,
+            other_ends=other.ends.assumption,
+        )
 
     # -- building blocks -----------------------------------------------------------------
     def _expire(self, t: float | None) -> None:
         for gone in self.table.expire(t):
             self._forget(gone)
+        if t is not None:
+            self.alarms.prune(float(t))
+
+    def _report(self, vid: str) -> VehicleReport:
+        report = self.table.get(vid)
+        if report is None:  # pragma: no cover - hits come from the table
+            raise UnknownVehicleError(f"no current report of vehicle {vid!r}")
+        return report
 
     def _profile(self, vid: str) -> BrakingProfile:
         return self.profiles.get(vid, self.profile)
@@ -434,9 +585,8 @@ class Analyser:
         return self.sector.evaluate(own, others, course_deg=course)
 
     def _sector_threat(
-        self, own: VehicleReport, other: VehicleReport | None, hit: SectorHit, note: str = ""
+        self, own: VehicleReport, other: VehicleReport, hit: SectorHit, note: str = ""
     ) -> Threat:
-        assert other is not None
         course = self.courses.course(own.vehicle_id)
         bearing = math.radians(hit.bearing_deg)
         closing = float(
@@ -466,7 +616,7 @@ class Analyser:
 
     @staticmethod
     def _assessment(
-        vid: str, now: float, threats: list[Threat], suppressed: list[Suppressed], method: str
+        vid: str, now: float, threats: list[Threat], suppressed: list[Suppressed], method: Method
     ) -> Assessment:
         ordered = sort_threats(threats)
         return Assessment(
@@ -475,347 +625,182 @@ class Analyser:
             level=highest_level(ordered),
             threats=ordered,
             suppressed=tuple(sorted(suppressed, key=lambda s: s.distance_m)),
-            method=method,  # type: ignore[arg-type]
+            method=method,
         )
 
     # -- per-cycle views -----------------------------------------------------------------
-    def _refresh(self, now: float) -> None:
-        if self._views_time == now and self._index_version == self._version:
-            return
-        assert self.positioner is not None and self.track_map is not None
-        views: dict[str, _View] = {}
-        edge_index: dict[int, list[tuple[str, int]]] = defaultdict(list)
-        conflict_index: dict[int, list[tuple[str, int, Path, float, int, int]]] = defaultdict(list)
+    def _refresh(self, now: float) -> CycleViews:
+        cycle = self._cycle
+        if cycle is not None and cycle.t == now and self._cycle_version == self._version:
+            return cycle
+        if self.positioner is None or self.track_map is None:  # pragma: no cover - guarded
+            raise RuntimeError("views need a map")
         reports = list(self.table)
         positions = [self.positioner.position(r.vehicle_id, now) for r in reports]
-        speeds = [
-            pos.speed_mps if pos is not None and pos.matched else r.speed_mps
-            for r, pos in zip(reports, positions, strict=True)
-        ]
-        horizons = self._horizons(reports, speeds)
-        for report, pos, speed, horizon in zip(reports, positions, speeds, horizons, strict=True):
-            vid = report.vehicle_id
-            view = _View(report, pos, speed, horizon)
-            if pos is not None and pos.matched:
-                view.hyps = self._hypotheses(pos, horizon)
-                for k, h in enumerate(view.hyps):
-                    edge_index[h.edge_id].append((vid, k))
-                    for p in h.paths:
-                        for cp in p.conflicts:
-                            node = next(
-                                (n for n in p.nodes if abs(n.distance_m - cp.distance_m) < 1e-6),
-                                None,
-                            )
-                            frm = node.from_edge if node is not None else cp.edge_id
-                            to = node.to_edge if node is not None else cp.edge_id
-                            conflict_index[cp.conflict_id].append(
-                                (vid, k, p, cp.distance_m, frm, to)
-                            )
-            views[vid] = view
-        self._views = views
-        self._edge_index = dict(edge_index)
-        self._conflict_index = dict(conflict_index)
-        self._views_time = now
-        self._index_version = self._version
+        cycle = build_views(
+            self.track_map,
+            reports,
+            positions,
+            self.profiles,
+            self.profile,
+            self._view_settings,
+            now,
+            self._moving,
+        )
+        self._cycle, self._cycle_version = cycle, self._version
+        return cycle
 
-    def _horizons(self, reports: list[VehicleReport], speeds: list[float]) -> list[float]:
-        """Look-ahead of every vehicle, vectorised per braking profile, m."""
-        out = [0.0] * len(reports)
-        groups: dict[int, list[int]] = defaultdict(list)
-        for k, r in enumerate(reports):
-            groups[id(self._profile(r.vehicle_id))].append(k)
-        for members in groups.values():
-            prof = self._profile(reports[members[0]].vehicle_id)
-            hs = braking.horizon_m(
-                np.array([speeds[k] for k in members]), prof, minimum_m=self.config.min_horizon_m
-            )
-            for k, h in zip(members, np.atleast_1d(hs), strict=True):
-                out[k] = float(h)
-        return out
-
-    def _hypotheses(self, pos: TrackPosition, horizon: float) -> list[_Hyp]:
-        assert self.track_map is not None and pos.edge_id is not None
-        assert pos.direction is not None and pos.offset_m is not None
-        c = self.config
-        chosen = [h for h in pos.hypotheses if h.probability >= c.min_hypothesis_probability]
-        chosen = chosen[: c.max_hypotheses] or list(pos.hypotheses[:1])
-        total = sum(h.probability for h in chosen) or 1.0
-        out = []
-        for k, h in enumerate(chosen):
-            if k == 0:  # the filtered (possibly dead-reckoned) estimate of the best one
-                edge, off, d = pos.edge_id, pos.offset_m, pos.direction
-            else:
-                edge, off, d = h.edge_id, h.offset_m, h.direction
-            paths = self.track_map.paths_ahead(
-                edge, off, d, horizon, respect_direction=not h.wrong_way
-            )
-            out.append(_Hyp(edge, d, off, h.probability / total, h.wrong_way, paths))
-        return out
-
-    def _track_candidates(self, vid: str, view: _View) -> set[str]:
+    @staticmethod
+    def _candidates(cycle: CycleViews, view: VehicleView) -> set[str]:
+        """Vehicles on the own paths or passing a conflict point on them."""
         found: set[str] = set()
         for h in view.hyps:
             for p in h.paths:
                 for s in p.steps:
-                    for ovid, _ in self._edge_index.get(s.edge_id, ()):
-                        found.add(ovid)
+                    for entry in cycle.by_edge.get(s.edge_id, ()):
+                        found.add(entry.vehicle_id)
                 for cp in p.conflicts:
-                    for entry in self._conflict_index.get(cp.conflict_id, ()):
-                        found.add(entry[0])
-        found.discard(vid)
+                    for centry in cycle.by_conflict.get(cp.conflict_id, ()):
+                        found.add(centry.vehicle_id)
+        found.discard(view.vehicle_id)
         return found
 
     # -- pairwise track analysis ---------------------------------------------------------
-    def _track_threat(self, own: _View, other: _View) -> tuple[Threat | None, str | None]:
+    def _pair(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> _PairResult | None:
+        """Every conflict of a pair over both vehicles' hypotheses and the own zones."""
         c = self.config
-        p_conflict = 0.0
-        worst: _Candidate | None = None
-        overlap_missed = False
+        alarm_weight = 0.0
+        emergency_weight = 0.0
+        any_weight = 0.0
+        worst: Finding | None = None
+        worst_alarm: Finding | None = None
+        hold_weight = 0.0
+        release_on = c.alarms
         for h in own.hyps:
-            for g in other.hyps:
-                cand, missed = self._pair_conflict(own, h, other, g)
-                overlap_missed = overlap_missed or missed
-                if cand is None:
-                    continue
-                p_conflict += h.probability * g.probability
-                if worst is None or (level_rank(cand.level), -cand.gap_m) > (
-                    level_rank(worst.level),
-                    -worst.gap_m,
-                ):
-                    worst = cand
+            for g_idx, g in enumerate(other.hyps):
+                w = h.probability * g.probability
+                trusted = h.trusted and g.trusted
+                for p_idx, path in enumerate(h.paths):
+                    pi = h.path_probability[p_idx]
+                    findings = self._path_findings(cycle, own, h, path, other, g_idx, g)
+                    best_alarm = 0.0
+                    best_emergency = 0.0
+                    best_any = 0.0
+                    best_hold = 0.0
+                    for f, weight in findings:
+                        if not trusted and f.level in _ALARM_LEVELS:
+                            f = replace(f, level="advisory", detail=f.detail + " (unconfirmed)")
+                        if worst is None or _severity(f) > _severity(worst):
+                            worst = f
+                        best_any = max(best_any, weight)
+                        if f.level == "emergency":
+                            best_emergency = max(best_emergency, weight)
+                        if f.level in _ALARM_LEVELS:
+                            best_alarm = max(best_alarm, weight)
+                            if worst_alarm is None or _severity(f) > _severity(worst_alarm):
+                                worst_alarm = f
+                        if (
+                            trusted
+                            and f.closing_mps > c.closing_speed_mps
+                            and f.margin_m
+                            <= release_on.release_margin_m
+                            + release_on.release_time_s * f.closing_mps
+                        ):
+                            best_hold = max(best_hold, weight)
+                    hold_weight += w * pi * best_hold
+                    alarm_weight += w * pi * best_alarm
+                    emergency_weight += w * pi * best_emergency
+                    any_weight += w * pi * best_any
         if worst is None:
-            return None, self._suppression_reason(own, other, overlap_missed)
-        if p_conflict < c.conflict_probability:
-            return None, "below_probability"
-        assert own.position is not None and other.position is not None
-        ambiguous = (
-            p_conflict < 0.999
-            or own.position.status == "ambiguous"
-            or other.position.status == "ambiguous"
-        )
-        detail = worst.detail
-        if ambiguous:
-            detail += f" (conflict probability {p_conflict:.2f})"
-        return (
-            Threat(
-                vehicle_id=other.report.vehicle_id,
-                kind=worst.kind,  # type: ignore[arg-type]
-                level=worst.level,
-                distance_m=worst.gap_m,
-                closing_speed_mps=worst.closing_mps,
-                ttc_s=worst.ttc_s,
-                method="track",
-                zone=worst.zone,
-                probability=min(p_conflict, 1.0),
-                own_match_probability=own.position.probability,
-                other_match_probability=other.position.probability,
-                ambiguous=ambiguous,
-                detail=detail,
-            ),
-            None,
-        )
-
-    def _pair_conflict(
-        self, own: _View, h: _Hyp, other: _View, g: _Hyp
-    ) -> tuple[_Candidate | None, bool]:
-        """The most severe conflict of one pair of hypotheses (and whether a shared
-        merge/crossing was dismissed because the arrival windows do not overlap)."""
-        best: _Candidate | None = None
-        missed = False
-        ov_id = other.report.vehicle_id
-        for p in h.paths:
-            located = p.locate_step(g.edge_id, g.offset_m)
-            if located is None:
-                continue
-            d, step = located
-            best = _more_severe(
-                best, self._on_path(own, other, p, d, step.direction == g.direction)
-            )
-        if best is not None:
-            return best, False
-        # merges and crossings: conflict points both vehicles' zones pass
-        for p in h.paths:
-            for cp in p.conflicts:
-                for vid, k, op, od, ofrom, oto in self._conflict_index.get(cp.conflict_id, ()):
-                    if vid != ov_id or other.hyps[k] is not g:
-                        continue
-                    found, no_overlap = self._at_conflict(own, p, cp, other, op, od, ofrom, oto)
-                    missed = missed or no_overlap
-                    best = _more_severe(best, found)
-        return best, missed
-
-    def _on_path(
-        self, own: _View, other: _View, path: Path, d: float, same_way: bool
-    ) -> _Candidate:
-        own_front = own.report.antenna_offset_m or 0.0
-        o = other.report
-        if same_way:
-            extent = (
-                (o.length_m - o.antenna_offset_m)
-                if (o.length_m is not None and o.antenna_offset_m is not None)
-                else 0.0
-            )
-            kind = "rear_end"
-            closing = own.speed_mps - other.speed_mps
-        else:
-            extent = o.antenna_offset_m or 0.0
-            kind = "head_on"
-            closing = own.speed_mps + other.speed_mps
-        gap = d - own_front - extent
-        level = braking.classify(
-            gap - self._uncertainty(own, other),
-            own.speed_mps,
-            self._profile(own.report.vehicle_id),
-            kind=kind,  # type: ignore[arg-type]
-            v_other_mps=other.speed_mps,
-            other_profile=self._profile(o.vehicle_id),
-            leader_braking=o.braking if same_way else "none",
-            horizon_m=own.horizon_m,
-        )
-        level = self._cap(level, own, closing, path)
-        what = "ahead on the same track" if same_way else "ahead, running towards us"
-        return _Candidate(
-            kind,
-            level,
-            gap,
-            closing,
-            braking.time_to_collision(gap, closing),
-            path.zone,
-            f"{o.vehicle_id} {what} at {gap:.0f} m (zone {path.zone})",
-        )
-
-    def _at_conflict(
-        self,
-        own: _View,
-        path: Path,
-        cp: Any,
-        other: _View,
-        opath: Path,
-        od: float,
-        ofrom: int,
-        oto: int,
-    ) -> tuple[_Candidate | None, bool]:
-        assert self.track_map is not None
-        conflict = self.track_map.conflicts[cp.conflict_id]
-        node = next((n for n in path.nodes if abs(n.distance_m - cp.distance_m) < 1e-6), None)
-        frm = node.from_edge if node is not None else cp.edge_id
-        to = node.to_edge if node is not None else cp.edge_id
-        if conflict.kind == "merge":
-            branches = conflict.edges[1:]
-            own_branch = {frm, to} & set(branches)
-            other_branch = {ofrom, oto} & set(branches)
-            if not own_branch or not other_branch or own_branch == other_branch:
-                return None, False  # same branch: a rear-end or head-on case, not a merge
-            extent = dict(zip(conflict.edges, conflict.extents_m, strict=True))
-            own_in = cp.distance_m - (extent[frm] if frm in branches else 0.0)
-            own_out = cp.distance_m + (extent[to] if to in branches else 0.0)
-            oth_in = od - (extent[ofrom] if ofrom in branches else 0.0)
-            oth_out = od + (extent[oto] if oto in branches else 0.0)
-            kind = "merge"
-        else:
-            own_edges, oth_edges = {frm, to}, {ofrom, oto}
-            if own_edges & oth_edges:
-                return None, False  # the same line through the crossing
-            half = max(conflict.extents_m)
-            own_in, own_out = cp.distance_m - half, cp.distance_m + half
-            oth_in, oth_out = od - half, od + half
-            kind = "crossing"
-        own_len = own.report.length_m or 0.0
-        oth_len = other.report.length_m or 0.0
-        own_window = self._window(own, own_in, own_out + own_len)
-        oth_window = self._window(other, oth_in, oth_out + oth_len)
-        if own_window is None or oth_window is None:
-            return None, True
-        slack = self.config.window_slack_s
-        if own_window[0] > oth_window[1] + slack or oth_window[0] > own_window[1] + slack:
-            return None, True
-        gap = max(own_in, 0.0)
-        level = braking.classify(
-            gap - self._uncertainty(own, other),
-            own.speed_mps,
-            self._profile(own.report.vehicle_id),
-            kind="static",
-            horizon_m=own.horizon_m,
-        )
-        # a standing vehicle at a merge or crossing is the obstacle, not the one to act
-        closing = own.speed_mps if own.speed_mps >= self.config.stopped_speed_mps else 0.0
-        level = self._cap(level, own, closing, path)
-        where = "switch" if kind == "merge" else "crossing"
-        return (
-            _Candidate(
-                kind,
-                level,
-                gap,
-                closing,
-                own_window[0] if own.speed_mps > self.config.stopped_speed_mps else None,
-                path.zone,
-                f"{other.report.vehicle_id} reaches the same {where} "
-                f"(we are {gap:.0f} m away, zone {path.zone})",
-            ),
-            False,
-        )
-
-    def _uncertainty(self, own: _View, other: _View) -> float:
-        """Margin for position uncertainty: k x sqrt(sigma_own^2 + sigma_other^2), m."""
-        s1 = own.position.sigma_m if own.position and own.position.sigma_m else 0.0
-        s2 = other.position.sigma_m if other.position and other.position.sigma_m else 0.0
-        return self.config.gap_margin_sigmas * math.hypot(s1, s2)
-
-    def _window(self, view: _View, d_in: float, d_out: float) -> tuple[float, float] | None:
-        """Time interval a vehicle occupies a zone from d_in to d_out ahead, s (None if it
-        will not get there at its current speed)."""
-        v = view.speed_mps
-        if d_in <= 0.0:
-            return (0.0, d_out / v if v > self.config.stopped_speed_mps else math.inf)
-        if v <= self.config.stopped_speed_mps:
             return None
-        return (d_in / v, d_out / v)
-
-    def _cap(self, level: Level, own: _View, closing: float, path: Path) -> Level:
-        """Standing and not (or barely) closing: at most advisory; off the planned route:
-        advisory."""
-        if (
-            own.speed_mps < self.config.stopped_speed_mps
-            and closing <= self.config.stopped_speed_mps
+        # an alarm is held by the conflicts that keep closing in, as probable as it takes
+        # to raise one
+        hold = hold_weight >= c.warning_probability
+        statuses = (own.position, other.position)
+        ambiguous = any_weight < 0.999 or any(
+            p is not None and p.status == "ambiguous" for p in statuses
+        )
+        if worst_alarm is not None and (
+            alarm_weight >= c.warning_probability or emergency_weight >= c.emergency_probability
         ):
-            level = "advisory" if level_rank(level) > level_rank("advisory") else level
-        if self._zone_role(own.report, path) == "advisory":
-            level = "advisory" if level_rank(level) > level_rank("advisory") else level
-        return level
+            return _PairResult(worst_alarm.level, worst_alarm, alarm_weight, hold, ambiguous)
+        level: Level = "advisory" if worst.level != "none" else "none"
+        return _PairResult(level, replace(worst, level=level), any_weight, hold, ambiguous)
 
-    @staticmethod
-    def _zone_role(report: VehicleReport, path: Path) -> Literal["warning", "advisory"]:
-        if not report.route:
-            return "warning"
-        route = set(report.route)
-        # the zone is on the route when every edge it takes after the first is routed
-        return "warning" if all(e in route for e in path.edges[1:]) else "advisory"
+    def _path_findings(
+        self,
+        cycle: CycleViews,
+        own: VehicleView,
+        h: HypothesisView,
+        path: Path,
+        other: VehicleView,
+        g_idx: int,
+        g: HypothesisView,
+    ) -> list[tuple[Finding, float]]:
+        """Conflicts of one own path with one hypothesis of the other vehicle, each with the
+        probability that the other takes the path that makes it (1 when it stands on ours)."""
+        out: list[tuple[Finding, float]] = []
+        located = path.locate_step(g.edge_id, g.offset_m)
+        if located is not None:
+            d, step = located
+            same_way = step.direction == g.direction
+            found = on_path(own, path, d, other, same_way, self._rules)
+            if found is not None:
+                out.append((found, 1.0))
+            return out
+        if self.track_map is None:  # pragma: no cover - guarded by the caller
+            return out
+        for cp in path.conflicts:
+            entries = cycle.by_conflict.get(cp.conflict_id, ())
+            node = next((n for n in path.nodes if abs(n.distance_m - cp.distance_m) < 1e-6), None)
+            frm = node.from_edge if node is not None else cp.edge_id
+            to = node.to_edge if node is not None else cp.edge_id
+            conflict = self.track_map.conflicts[cp.conflict_id]
+            for entry in entries:
+                if entry.vehicle_id != other.vehicle_id or entry.hyp != g_idx:
+                    continue
+                found = at_conflict(
+                    own,
+                    path,
+                    conflict,
+                    cp.distance_m,
+                    frm,
+                    to,
+                    other,
+                    entry,
+                    self._rules,
+                    self._profile(other.vehicle_id).traction_mps2,
+                )
+                if found is not None:
+                    out.append((found, g.path_probability[entry.path]))
+        return out
 
-    def _suppression_reason(self, own: _View, other: _View, overlap_missed: bool) -> str:
-        assert self.track_map is not None
-        c_parallel = self.config.parallel_distance_m
-        if overlap_missed:
-            return "no_overlap"
+    def _suppression_reason(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> str:
+        if self.track_map is None:  # pragma: no cover - guarded
+            return "not_reachable"
         own_edges = {s.edge_id for h in own.hyps for p in h.paths for s in p.steps}
         oth_edges = {h.edge_id for h in other.hyps}
         for a, b, _, _ in self.track_map.grade_separated:
             if (a in own_edges and b in oth_edges) or (b in own_edges and a in oth_edges):
                 return "grade_separated"
+        shared = any(
+            entry.vehicle_id == other.vehicle_id
+            for h in own.hyps
+            for p in h.paths
+            for cp in p.conflicts
+            for entry in cycle.by_conflict.get(cp.conflict_id, ())
+        )
+        if shared:
+            return "no_overlap"
         pos = other.position
         if pos is not None and pos.edge_id is not None and pos.offset_m is not None:
             pt = shapely.Point(self.track_map.point_at(pos.edge_id, pos.offset_m))
             geoms = [self.track_map.edges[e].geometry for e in own_edges]
-            if geoms and float(np.min(shapely.distance(pt, geoms))) <= c_parallel:
+            near = float(np.min(shapely.distance(pt, geoms))) if geoms else math.inf
+            if near <= self.config.parallel_distance_m:
                 return "parallel_track"
         return "not_reachable"
 
 
-def _more_severe(a: _Candidate | None, b: _Candidate | None) -> _Candidate | None:
-    if a is None:
-        return b
-    if b is None:
-        return a
-    return b if (level_rank(b.level), -b.gap_m) > (level_rank(a.level), -a.gap_m) else a
-
-
-__all__ = ["Analyser", "AnalyserConfig", "Zone"]
+def _severity(f: Finding) -> tuple[int, float]:
+    return (level_rank(f.level), -f.margin_m)

@@ -53,6 +53,12 @@ class Threat:
         conflict probability exceeded the analyser's threshold.
     detail : str
         Short human-readable explanation.
+    own_ends, other_ends : str or None
+        How the ends of each vehicle were placed (track method): ``reported``,
+        ``assumed_offset`` or ``assumed_length`` (see :mod:`antikol.analysis.ends`).
+    held : bool
+        The alarm is held on by the analyser's hysteresis (the conflict is not clearly
+        over) although the gap alone would not raise it now.
     """
 
     vehicle_id: str
@@ -69,6 +75,9 @@ class Threat:
     other_match_probability: float | None = None
     ambiguous: bool = False
     detail: str = ""
+    own_ends: str | None = None
+    other_ends: str | None = None
+    held: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +88,8 @@ class Suppressed:
     ----------
     vehicle_id : str
     reason : str
-        e.g. ``parallel_track``, ``not_reachable``, ``grade_separated``, ``opening``.
+        ``parallel_track``, ``not_reachable``, ``grade_separated``, ``no_overlap`` (the
+        paths meet, but not at the same time) or ``below_probability``.
     distance_m : float
         Planar distance, metres.
     bearing_deg : float

@@ -75,6 +75,15 @@ class BrakingProfile:
     max_speed_mps : float
         Maximum service speed of the vehicle, m/s. Used for plots and curve caps only;
         faster reported speeds are still evaluated.
+    vehicle_length_m : float
+        Length of a typical vehicle of this kind, m: used for a report without
+        ``length_m``.
+    antenna_offset_fraction : float
+        Where the GPS antenna usually sits, as a fraction of the length back from the
+        front (0.5: mid-vehicle): used for a report without ``antenna_offset_m``.
+    antenna_offset_sigma_fraction : float
+        Uncertainty of that assumed antenna position, as a fraction of the length: the
+        gaps of such vehicles are shortened by it (see :mod:`antikol.analysis.ends`).
     max_grade : float
         Steepest gradient the profile is declared for (dimensionless, 0.08 = 8 %). The
         service brake must hold the vehicle there: ``service_decel_mps2 − g·max_grade > 0``.
@@ -103,6 +112,9 @@ class BrakingProfile:
     margin_k2_s2_per_m: float = 0.005
     max_speed_mps: float = 20.0
     max_grade: float = 0.08
+    vehicle_length_m: float = 32.0
+    antenna_offset_fraction: float = 0.5
+    antenna_offset_sigma_fraction: float = 0.1
     description: str = field(default="", repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -136,6 +148,10 @@ class BrakingProfile:
                 self.emergency_buildup_s,
                 f"emergency brake slower to build up than the service brake "
                 f"({self.service_buildup_s:g} s)",
+            )
+        if self.antenna_offset_fraction > 1.0:
+            raise _field_error(
+                "antenna_offset_fraction", self.antenna_offset_fraction, "must be in [0, 1]"
             )
         if self.service_decel_mps2 - G_MPS2 * self.max_grade <= 0.0:
             raise _field_error(
@@ -183,8 +199,10 @@ class BrakingProfile:
     ) -> BrakingProfile:
         """Build a profile from a mapping with the field names as keys (as in the TOML files).
 
-        Every numeric field is required; ``name`` defaults to ``default_name`` and
-        ``description`` to an empty string.
+        Every braking field is required; the vehicle geometry fields
+        (``vehicle_length_m``, ``antenna_offset_fraction``,
+        ``antenna_offset_sigma_fraction``) default to the tram's; ``name`` defaults to
+        ``default_name`` and ``description`` to an empty string.
 
         Parameters
         ----------
@@ -212,7 +230,9 @@ class BrakingProfile:
                 f"{source}: unknown key(s) {', '.join(unknown)}; "
                 f"known fields: {', '.join(sorted(known))}"
             )
-        missing = [name for name in _NUMERIC_FIELDS if name not in data]
+        missing = [
+            name for name in _NUMERIC_FIELDS if name not in data and name not in _OPTIONAL_FIELDS
+        ]
         if missing:
             raise ProfileError(f"{source}: missing field(s) {', '.join(missing)}")
         values = dict(data)
@@ -239,12 +259,22 @@ _NUMERIC_FIELDS: Final = (
     "margin_k2_s2_per_m",
     "max_speed_mps",
     "max_grade",
+    "vehicle_length_m",
+    "antenna_offset_fraction",
+    "antenna_offset_sigma_fraction",
+)
+#: Vehicle geometry: optional in a profile file (the tram's values otherwise).
+_OPTIONAL_FIELDS: Final = (
+    "vehicle_length_m",
+    "antenna_offset_fraction",
+    "antenna_offset_sigma_fraction",
 )
 _POSITIVE_FIELDS: Final = (
     "traction_mps2",
     "service_decel_mps2",
     "emergency_decel_mps2",
     "max_speed_mps",
+    "vehicle_length_m",
 )
 _NON_NEGATIVE_FIELDS: Final = tuple(n for n in _NUMERIC_FIELDS if n not in _POSITIVE_FIELDS)
 
