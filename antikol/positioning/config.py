@@ -58,6 +58,10 @@ class PositioningConfig:
     reversal_log_prior : float
         Log-probability that a standing vehicle changes its running direction between two
         fixes (bidirectional trams at termini).
+    relocation_log_prior : float
+        Log-probability that the vehicle is where none of its hypotheses can have taken
+        it (a track missing from the map, a wrong connection in it): the filter recovers
+        from map errors instead of holding on to an impossible history.
     transition_beta_m : float
         Scale of the transition likelihood, m (plus 10 % of the distance travelled; a tenth
         of that with an odometer).
@@ -120,6 +124,7 @@ class PositioningConfig:
     wrong_way_entry_log_prior: float = math.log(1e-3)
     wrong_way_log_prior: float = -0.5
     reversal_log_prior: float = math.log(1e-4)
+    relocation_log_prior: float = math.log(1e-5)
     transition_beta_m: float = 6.0
     confidence: float = 0.8
     switch_probability: float = 0.75

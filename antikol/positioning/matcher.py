@@ -44,6 +44,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import shapely
+import shapely.ops
 
 from antikol.kinds import PositionStatus
 from antikol.positioning.config import PositioningConfig
@@ -119,6 +121,7 @@ class Positioner:
         self._f.grow(64)
         self._free: list[int] = list(range(63, -1, -1))
         self._cache: dict[str, TrackPosition] = {}
+        self._loops = _loop_edges(track_map, self.config.search_radius_m)
 
     # -- fleet storage -------------------------------------------------------------------
     def _row_of(self, vehicle_id: str) -> int:
@@ -364,25 +367,15 @@ class Positioner:
         hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
         sigma = c.gps_sigma_m * hdop
         radius = np.maximum(c.search_radius_m, 4.0 * sigma)
-        batch = self.net.candidates_batch_xy(xs, ys, float(radius.max()))
-        order = np.lexsort((batch.edge_id, batch.point))
-        pt = batch.point[order]
-        # a fix beyond an edge's end projects onto that end: the neighbouring edge holds it
-        # (a candidate there would turn an along-track miss into a small "lateral" offset)
-        overshoot = np.sqrt(
-            np.maximum(batch.distance_m[order] ** 2 - batch.lateral_m[order] ** 2, 0.0)
-        )
-        within = (batch.distance_m[order] <= radius[pt]) & (overshoot <= _END_OVERSHOOT_M)
-        order, pt = order[within], pt[within]
-        # one candidate state per (candidate edge, running direction)
-        cv = np.repeat(pt, 2)  # report index of each candidate state
-        edge = np.repeat(batch.edge_id[order], 2)
-        direction = np.tile(np.array([1, -1]), len(order))
+        found = self._candidates(xs, ys, radius)
+        # one candidate state per (candidate place, running direction)
+        cv = np.repeat(found.point, 2)  # report index of each candidate state
+        edge = np.repeat(found.edge_id, 2)
+        direction = np.tile(np.array([1, -1]), len(found.point))
         cs = state_id(edge, direction)
-        co = np.repeat(batch.offset_m[order], 2)
-        # beyond an end by less than the tolerance: the whole distance is the offset
-        lateral = np.repeat(np.copysign(batch.distance_m[order], batch.lateral_m[order]), 2)
-        heading = np.repeat(batch.heading_deg[order], 2)
+        co = np.repeat(found.offset_m, 2)
+        lateral = np.repeat(found.lateral_m, 2)
+        heading = np.repeat(found.heading_deg, 2)
         wrong = ~self.reach.allowed[cs]
 
         prev_t = self._f.t[rows]
@@ -503,7 +496,16 @@ class Positioner:
             self._f.rejected[row] = 0
             fresh[i] = True
         use0 = fresh[cv]
-        new_lp = np.where(use0, score0, lse)
+        # the vehicle may be where its previous hypotheses cannot reach (a track missing
+        # from the map, a wrong connection): a small prior keeps the filter from holding on
+        # to an impossible history
+        relocate = score0 + c.relocation_log_prior
+        moved = ~use0 & (relocate > top)
+        lse = np.where(use0, lse, np.logaddexp(lse, relocate))
+        if moved.any():
+            self.stats["relocated"] += int(np.count_nonzero(moved))
+        use0 = use0 | moved
+        new_lp = np.where(fresh[cv], score0, lse)
         new_prog = np.where(use0, 0.0, self._f.hg[prow][ar, best] + dist[ar, best])
         new_parent = np.where(use0, -1, best)
         new_ww = np.where(wrong, np.where(use0, 0.0, self._f.hw[prow][ar, best] + dt[cv]), 0.0)
@@ -539,6 +541,69 @@ class Positioner:
             bias_cols,
             sigma,
         )
+
+    def _candidates(self, xs: FloatArray, ys: FloatArray, radius: FloatArray) -> _Found:
+        """Places on the tracks near each fix: the nearest point of every edge in reach,
+        and on a loop the nearest point of its other half too (where a turning loop closes,
+        its start and end lie metres apart and the fix may belong to either)."""
+        batch = self.net.candidates_batch_xy(xs, ys, float(radius.max()))
+        order = np.lexsort((batch.edge_id, batch.point))
+        pt = batch.point[order]
+        # a fix beyond an edge's end projects onto that end: the neighbouring edge holds it
+        # (a candidate there would turn an along-track miss into a small "lateral" offset)
+        overshoot = np.sqrt(
+            np.maximum(batch.distance_m[order] ** 2 - batch.lateral_m[order] ** 2, 0.0)
+        )
+        within = (batch.distance_m[order] <= radius[pt]) & (overshoot <= _END_OVERSHOOT_M)
+        order, pt = order[within], pt[within]
+        found = _Found(
+            pt,
+            batch.edge_id[order],
+            batch.offset_m[order],
+            # beyond an end by less than the tolerance: the whole distance is the offset
+            np.copysign(batch.distance_m[order], batch.lateral_m[order]),
+            batch.heading_deg[order],
+        )
+        loops = self._loops
+        if not loops:
+            return found
+        extra = [k for k, e in enumerate(found.edge_id.tolist()) if e in loops]
+        if not extra:
+            return found
+        rows: list[tuple[int, int, float, float, float]] = []
+        for k in extra:
+            e = int(found.edge_id[k])
+            half, geom = loops[e]
+            i = int(found.point[k])
+            pt_geom = shapely.Point(xs[i], ys[i])
+            other = (half, geom.length) if found.offset_m[k] < half else (0.0, half)
+            part = shapely.ops.substring(geom, *other)
+            off = other[0] + float(part.project(pt_geom))
+            p = geom.interpolate(off)
+            dist = float(p.distance(pt_geom))
+            if dist > radius[i] or abs(off - found.offset_m[k]) < 2.0 * radius[i]:
+                continue
+            a, b = (
+                geom.interpolate(max(off - 0.5, 0.0)),
+                geom.interpolate(min(off + 0.5, geom.length)),
+            )
+            tx, ty = b.x - a.x, b.y - a.y
+            side = tx * (pt_geom.y - p.y) - ty * (pt_geom.x - p.x)
+            rows.append(
+                (i, e, off, math.copysign(dist, side), math.degrees(math.atan2(tx, ty)) % 360.0)
+            )
+        if not rows:
+            return found
+        add = np.array(rows, dtype=float)
+        merged = _Found(
+            np.concatenate([found.point, add[:, 0].astype(np.int64)]),
+            np.concatenate([found.edge_id, add[:, 1].astype(np.int64)]),
+            np.concatenate([found.offset_m, add[:, 2]]),
+            np.concatenate([found.lateral_m, add[:, 3]]),
+            np.concatenate([found.heading_deg, add[:, 4]]),
+        )
+        keep = np.lexsort((merged.edge_id, merged.point))
+        return _Found(*(a[keep] for a in merged))
 
     def _commit(
         self,
@@ -985,6 +1050,32 @@ class Positioner:
         lr = data["last_report"]
         self._f.last[row] = None if lr is None else VehicleReport(**lr)
         self._f.place[row] = self._place_probabilities(np.array([row]))[0] if m else 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class _Found:
+    """Candidate places of a batch of fixes (parallel arrays, grouped by fix)."""
+
+    point: IntArray  # index of the fix
+    edge_id: IntArray
+    offset_m: FloatArray
+    lateral_m: FloatArray  # signed distance from the track, m (left positive)
+    heading_deg: FloatArray  # track heading in the edge's vertex order
+
+    def __iter__(self) -> Any:
+        return iter((self.point, self.edge_id, self.offset_m, self.lateral_m, self.heading_deg))
+
+
+def _loop_edges(net: TrackMap, radius_m: float) -> dict[int, tuple[float, Any]]:
+    """Edges that come back near their own start (turning loops): their half-length and
+    geometry, m."""
+    out = {}
+    for e in net.edges:
+        g = e.geometry
+        start, end = g.coords[0], g.coords[-1]
+        if math.dist(start, end) < 2.0 * radius_m and g.length > 6.0 * radius_m:
+            out[e.edge_id] = (g.length / 2.0, g)
+    return out
 
 
 #: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
