@@ -60,8 +60,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: A move between two states: an arc of the traversal graph.
-Move = tuple[TrackState, TrackState]
+#: A move between two states (TrackState or equal plain tuples): an arc of the traversal graph.
+Move = tuple[tuple[int, int], tuple[int, int]]
 
 
 # -- the graphs ---------------------------------------------------------------------------
@@ -255,11 +255,19 @@ class RoutableMap(Protocol):
     def edge(self, edge_id: int) -> Edge: ...
 
 
+#: Running directions by value: a dict look-up costs a tenth of ``Direction(value)``.
+_DIRECTIONS = {1: Direction.FORWARD, -1: Direction.BACKWARD}
+#: The searches test ``direction is _FORWARD`` and add or subtract rather than compare or
+#: multiply an IntEnum: arithmetic on an int subclass misses the interpreter's fast paths
+#: and cost ~10 % of paths_ahead. Every state holds a Direction member, so identity works.
+_FORWARD = Direction.FORWARD
+
+
 def _direction(direction: int) -> Direction:
     """``direction`` as a :class:`Direction`; a ValueError names the wrong value."""
     if direction not in (1, -1):
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
-    return Direction(direction)
+    return _DIRECTIONS[direction]
 
 
 # -- routes ahead -------------------------------------------------------------------------
@@ -309,7 +317,7 @@ def paths_ahead(
     if not horizon_m >= 0:
         raise ValueError(f"horizon_m must be >= 0, got {horizon_m}")
     index = net.routing_index
-    graph = index.graph(respect_direction=respect_direction)
+    graph = index.traversal if respect_direction else index.traversal_any
     # locals: this loop is the hot path of the analyser
     lengths = index.lengths_m
     choices = index.choices
@@ -319,10 +327,12 @@ def paths_ahead(
     conflicts_of = net.conflicts
     offset = min(max(float(offset_m), 0.0), lengths[edge.edge_id])
     results: list[Path] = []
-    # each stack item: (state, enter_offset, distance at entry, steps, nodes, conflicts, labels)
+    # each stack item: (state, enter_offset, distance at entry, steps, nodes, conflicts, labels);
+    # a state is a TrackState from the graph or, at the start, a plain tuple equal to one
+    # (building the named tuple would cost more than the rest of a short search)
     stack: list[
         tuple[
-            TrackState,
+            tuple[int, Direction],
             float,
             float,
             list[PathStep],
@@ -331,24 +341,25 @@ def paths_ahead(
             list[str],
         ]
     ]
-    stack = [(TrackState(edge.edge_id, start_direction), offset, 0.0, [], [], [], [])]
+    stack = [((edge.edge_id, start_direction), offset, 0.0, [], [], [], [])]
     while stack:
         state, enter, start, steps, passed, conflicts, labels = stack.pop()
         e, d = state
+        forward = d is _FORWARD
         elen = lengths[e]
-        remaining = (elen - enter) if d == 1 else enter
+        remaining = (elen - enter) if forward else enter
         budget = horizon_m - start
         if remaining >= budget:
-            exit_off = enter + d * budget
+            exit_off = enter + budget if forward else enter - budget
             steps = [*steps, PathStep(e, d, enter, exit_off, start, horizon_m)]
             conflicts = conflicts + _crossings_on(index, e, enter, exit_off, start)
             results.append(_make_path(steps, passed, conflicts, labels, PathEnd.HORIZON))
             continue
-        exit_off = elen if d == 1 else 0.0
+        exit_off = elen if forward else 0.0
         end_m = start + remaining
         steps = [*steps, PathStep(e, d, enter, exit_off, start, end_m)]
         conflicts = conflicts + _crossings_on(index, e, enter, exit_off, start)
-        node_id = edges[e].end_node if d == 1 else edges[e].start_node
+        node_id = edges[e].end_node if forward else edges[e].start_node
         succ = list(graph.successors(state)) if state in graph else []
         if not succ or len(results) + len(stack) >= max_paths:
             node = nodes.get(node_id)
@@ -369,7 +380,7 @@ def paths_ahead(
                 ConflictPass(cid, conflicts_of[cid].kind, end_m, nxt[0])
                 for cid in conflicts_by_node.get(node_id, ())
             ]
-            enter_next = 0.0 if nxt[1] == 1 else lengths[nxt[0]]
+            enter_next = 0.0 if nxt[1] is _FORWARD else lengths[nxt[0]]
             stack.append(
                 (
                     nxt,
@@ -491,14 +502,14 @@ def route_distance(
     net.edge(to_edge)
     start_direction = _direction(from_direction)
     index = net.routing_index
-    graph = index.graph(respect_direction=respect_direction)
+    graph = index.traversal if respect_direction else index.traversal_any
     lengths = index.lengths_m
     if respect_direction and not net.edges[from_edge].allows(start_direction):
         return None
     if from_edge == to_edge and (to_offset_m - from_offset_m) * start_direction >= 0:
         d = abs(to_offset_m - from_offset_m)
         return RouteDistance(d, start_direction, (from_edge,)) if d <= cutoff_m else None
-    start = TrackState(from_edge, start_direction)
+    start = (from_edge, start_direction)  # equal to the graph's TrackState
     if start not in graph:
         return None
     remaining = (lengths[from_edge] - from_offset_m) if start_direction == 1 else from_offset_m
@@ -516,9 +527,9 @@ def route_distance(
         if state in settled:
             continue
         settled[state] = parent
-        e, d = state
+        e = state[0]  # unpacking a named tuple is slower than indexing it
         if e == to_edge:
-            total = cost + (to_offset_m if d == 1 else lengths[e] - to_offset_m)
+            total = cost + (to_offset_m if state[1] is _FORWARD else lengths[e] - to_offset_m)
             if total <= cutoff_m and (found is None or total < found[0]):
                 found = (total, state)
         nxt_cost = cost + lengths[e]
