@@ -201,7 +201,7 @@ def write(data: MapData, path: str | os.PathLike[str], *, stats: Mapping[str, An
 
 
 def read(path: str | os.PathLike[str]) -> MapData:
-    """Read and validate a map file.
+    """The records of a map file, validated (:func:`trackmap.load` builds a TrackMap of them).
 
     Parameters
     ----------
@@ -214,10 +214,10 @@ def read(path: str | os.PathLike[str]) -> MapData:
     Raises
     ------
     trackmap.errors.SourceError
-        Missing or unreadable file (also an ``OSError``).
+        The file does not exist or cannot be read.
     trackmap.errors.MapFileError
-        Not a trackmap file, an unsupported version, or broken content; the message names
-        the file and what is wrong (also a ``ValueError``).
+        The file is not valid JSON or not a valid map of this format version; the
+        message starts with the file name.
     """
     p = Path(path)
     if not p.exists():
