@@ -99,7 +99,7 @@ class Edge:
     direction : int
         Permitted running direction: +1 along the vertices, -1 against them, 0 both.
     direction_source : str
-        ``preferred_direction``, ``oneway``, ``driving_side`` or ``none``.
+        ``preferred_direction``, ``oneway``, ``driving_side``, ``propagated`` or ``none``.
     name : str or None
     """
 
@@ -228,7 +228,12 @@ class ConflictPoint:
 
 @dataclass(frozen=True, slots=True)
 class Stop:
-    """A stop position snapped to the track."""
+    """A stop position snapped to the track.
+
+    ``lon``, ``lat`` in degrees (OSM node ``stop_id``); ``edge_id`` and ``offset_m``
+    (metres from the edge's first vertex) are None when no track lies within the build's
+    ``stop_snap_m``.
+    """
 
     stop_id: int
     name: str | None

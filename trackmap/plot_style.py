@@ -39,6 +39,7 @@ TRACK_COLOURS: dict[str, str] = {
     "crossover": "#1a9e8f",
     "other": "#b5651d",
 }
+#: Legend text of each track class.
 TRACK_LABELS: dict[str, str] = {
     "main": "main line",
     "yard": "yard (depot)",
@@ -51,13 +52,31 @@ TRACK_LABELS: dict[str, str] = {
 
 @dataclass(frozen=True)
 class MarkerStyle:
+    """How a kind of point is marked on both kinds of figure.
+
+    Attributes
+    ----------
+    label : str
+        Legend text.
+    marker : str
+        matplotlib marker code.
+    colour, edge : str
+        Fill and edge colours (``"none"``: a ring).
+    size : float
+        matplotlib marker size, points.
+    zorder : float
+        Drawing order in the static figure.
+    html_radius : float
+        Radius of the CircleMarker on the HTML map, pixels.
+    """
+
     label: str
     marker: str
     colour: str
-    size: float  # points
-    edge: str  # marker edge colour
+    size: float
+    edge: str
     zorder: float
-    html_radius: float  # CircleMarker radius on the HTML map, pixels
+    html_radius: float
 
 
 #: Markers of the junction node classes (``link`` nodes are not marked).
@@ -68,11 +87,15 @@ NODE_STYLES: dict[str, MarkerStyle] = {
     "buffer_stop": MarkerStyle("buffer stop", "s", "#111111", 3.6, "#111111", 4.3, 4.0),
     "unknown": MarkerStyle("unknown junction", "*", "#ff1fd2", 9.0, "#7a0063", 4.4, 7.0),
 }
+#: At-grade crossings without a shared node (conflict points of kind ``crossing``).
 CROSSING_STYLE = MarkerStyle("at-grade crossing (conflict)", "o", "none", 10.0, "#e31a1c", 4.6, 9.0)
+#: Crossings at different levels (no conflict).
 GRADE_SEPARATED_STYLE = MarkerStyle(
     "grade-separated crossing", "+", "#555555", 7.0, "#555555", 3.9, 5.0
 )
+#: Stops snapped to the track.
 STOP_STYLE = MarkerStyle("stop", "^", "#17becf", 3.6, "#0b5f68", 3.8, 3.0)
+#: Colours of highlighted paths, in turn.
 HIGHLIGHT_COLOURS = (
     "#e6194b",
     "#f58231",
@@ -96,7 +119,15 @@ def track_class(edge: Edge) -> str:
 
 # -- helpers ------------------------------------------------------------------------------
 def output_path(path: str | os.PathLike[str], suffixes: Sequence[str], what: str) -> pathlib.Path:
-    """Check an output path: a supported suffix and an existing parent directory."""
+    """Check an output path: a supported suffix and an existing parent directory.
+
+    Raises
+    ------
+    ValueError
+        The suffix is not one of ``suffixes`` (``what`` names the writer in the message).
+    trackmap.errors.SourceError
+        The directory does not exist.
+    """
     out = pathlib.Path(path).expanduser()
     suffix = out.suffix.lower()
     if suffix not in suffixes:
@@ -111,6 +142,7 @@ def output_path(path: str | os.PathLike[str], suffixes: Sequence[str], what: str
 
 
 def default_title(net: TrackMap) -> str:
+    """Source file, edge count and track length (km): the title when none is given."""
     source = net.metadata.source.get("file") or "track map"
     km = float(sum(e.length_m for e in net.edges)) / 1000.0
     return f"{source}: {len(net.edges)} edges, {km:.1f} km of track"
