@@ -91,10 +91,14 @@ def traversal_graph(
         Nodes are :class:`TrackState`; each arc carries the junction's ``node`` id.
     """
     g = nx.DiGraph()
+    # one TrackState per state, shared by the node and every arc: the successors are then
+    # the very objects the graph is keyed by, and no named tuple is built twice
+    states: dict[tuple[int, int], TrackState] = {}
     for e in edges:
         for d in (Direction.FORWARD, Direction.BACKWARD):
             if e.allows(d) or not respect_direction:
-                g.add_node(TrackState(e.edge_id, d), length=lengths_m[e.edge_id])
+                states[(e.edge_id, d)] = state = TrackState(e.edge_id, d)
+                g.add_node(state, length=lengths_m[e.edge_id])
     for node in nodes:
         for i, j in node.allowed:
             for a, b in ((i, j), (j, i)):
@@ -102,10 +106,9 @@ def traversal_graph(
                 eb, endb = node.ends[b]
                 # arriving at an edge's last vertex means running forward on it; leaving
                 # from its first vertex, too
-                arrive = TrackState(ea, Direction.FORWARD if enda == 1 else Direction.BACKWARD)
-                leave = TrackState(eb, Direction.FORWARD if endb == 0 else Direction.BACKWARD)
-                if g.has_node(arrive) and g.has_node(leave):
-                    # the stored states, not plain tuples, become the successor keys
+                arrive = states.get((ea, 1 if enda == 1 else -1))
+                leave = states.get((eb, 1 if endb == 0 else -1))
+                if arrive is not None and leave is not None:
                     g.add_edge(arrive, leave, node=node.node_id)
     return g
 
