@@ -27,8 +27,11 @@ from typing import Any
 import numpy as np
 import shapely
 
+from trackmap.geometry import cumulative_length, deflection_deg, end_tangent
+from trackmap.kinds import ConflictKind, NodeClass
 from trackmap.network import TrackMap
-from trackmap.topology import cumulative_length, deflection_deg, end_tangent
+
+__all__ = ["CheckReport", "Finding", "check"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +117,7 @@ def check(
         return float(lon), float(lat)
 
     for node in net.nodes.values():
-        if node.cls == "unknown":
+        if node.cls == NodeClass.UNKNOWN:
             report.errors.append(
                 Finding(
                     "unknown_node",
@@ -159,7 +162,7 @@ def check(
                         node.node_id,
                     )
                 )
-        if node.cls == "link" and len(node.ends) == 2:
+        if node.cls == NodeClass.LINK and len(node.ends) == 2:
             tangents = []
             for eid, end in node.ends:
                 xy = np.asarray(net.edges[eid].geometry.coords, dtype=float)
@@ -201,7 +204,7 @@ def check(
             )
         )
     for c in net.conflicts:
-        if c.kind == "crossing":
+        if c.kind == ConflictKind.CROSSING:
             lon, lat = at(c.x, c.y)
             report.warnings.append(
                 Finding(
@@ -220,7 +223,7 @@ def _dangling(net: TrackMap, snap_m: float, report: CheckReport) -> None:
     geoms = np.array([e.geometry for e in net.edges], dtype=object)
     tree = shapely.STRtree(geoms)
     for node in net.nodes.values():
-        if node.cls != "buffer_stop":
+        if node.cls != NodeClass.BUFFER_STOP:
             continue
         own = node.ends[0][0]
         pt = shapely.Point(node.x, node.y)
@@ -239,6 +242,3 @@ def _dangling(net: TrackMap, snap_m: float, report: CheckReport) -> None:
                 node.node_id,
             )
         )
-
-
-__all__ = ["CheckReport", "Finding", "check"]

@@ -10,7 +10,13 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from trackmap.builder import build
+from trackmap.check import check
 from trackmap.errors import TrackMapError
+from trackmap.plot import plot
+from trackmap.storage import load
+
+__all__ = ["main"]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -75,8 +81,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from trackmap.build import build
-
     t0 = time.perf_counter()
     net = build(
         args.source,
@@ -96,8 +100,6 @@ def _build(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from trackmap.mapfile import load
-
     net = load(args.map)
     stats = net.stats()
     if args.json:
@@ -122,9 +124,6 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from trackmap.check import check
-    from trackmap.mapfile import load
-
     report = check(load(args.map))
     if args.json:
         print(json.dumps(report.as_dict(), indent=2, ensure_ascii=False))
@@ -146,9 +145,6 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from trackmap.mapfile import load
-    from trackmap.plot import plot
-
     net = load(args.map)
     kwargs: dict[str, object] = {"title": args.title}
     if args.output.suffix.lower() == ".html":

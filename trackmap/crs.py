@@ -16,6 +16,8 @@ from pyproj import CRS, Geod, Transformer
 
 from trackmap.errors import MapFileError
 
+__all__ = ["WGS84", "FloatArray", "LocalFrame"]
+
 WGS84 = CRS.from_epsg(4326)
 _GEOD = Geod(ellps="WGS84")
 

@@ -8,13 +8,22 @@ from pathlib import Path
 
 from trackmap.errors import SourceError
 from trackmap.network import TrackMap
+from trackmap.storage import load
+
+__all__ = ["DEFAULT_MAP_NAME", "DEFAULT_SOURCE_NAME", "default_map_path", "load_default"]
 
 DEFAULT_MAP_NAME = "krakow-tram.trackmap.geojson"
 DEFAULT_SOURCE_NAME = "krakow-tram-2023-12-14.osm.pbf"
 
 
 def default_map_path() -> Path:
-    """Path of the embedded Kraków map file (shipped in ``maps/``)."""
+    """Path of the embedded Kraków map file (shipped in ``maps/``).
+
+    Raises
+    ------
+    trackmap.errors.SourceError
+        The file is missing from the installation.
+    """
     try:
         path = Path(str(resources.files("trackmap.maps").joinpath(DEFAULT_MAP_NAME)))
     except ModuleNotFoundError:
@@ -26,8 +35,6 @@ def default_map_path() -> Path:
 
 @functools.lru_cache(maxsize=1)
 def _load_cached() -> TrackMap:
-    from trackmap.mapfile import load
-
     return load(default_map_path())
 
 

@@ -1,10 +1,20 @@
 """Exceptions raised by :mod:`trackmap`.
 
 Each derives from :class:`TrackMapError` and from the matching built-in, so callers can
-catch ``ValueError`` / ``OSError`` without importing trackmap.
+catch ``ValueError`` / ``OSError`` / ``ImportError`` without importing trackmap.
 """
 
 from __future__ import annotations
+
+__all__ = [
+    "MapFileError",
+    "MissingDependencyError",
+    "NoTracksError",
+    "SourceError",
+    "SourceFormatError",
+    "TrackMapError",
+    "UnknownEdgeError",
+]
 
 
 class TrackMapError(Exception):
@@ -32,3 +42,7 @@ class UnknownEdgeError(TrackMapError, KeyError):
 
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else "unknown edge"
+
+
+class MissingDependencyError(TrackMapError, ImportError):
+    """An optional package a function needs is not installed; the message says which."""

@@ -21,6 +21,9 @@ Layout (format ``trackmap``, version 1)::
 Geometry is WGS84 (RFC 7946), so the file opens in any GIS. The WGS84 vertices are the
 canonical geometry: local coordinates are recomputed from them with the stored CRS, which
 makes ``load(save(net)) == net`` exact.
+
+This module translates between the file and the map's records (:class:`~trackmap.model.MapData`);
+:class:`trackmap.TrackMap` is built from those by :func:`trackmap.load`.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -35,18 +39,39 @@ import shapely
 
 from trackmap.crs import LocalFrame
 from trackmap.errors import MapFileError, SourceError
-from trackmap.network import ConflictPoint, Edge, MapMetadata, Node, Stop, TrackMap
+from trackmap.kinds import ConflictKind, NodeClass
+from trackmap.model import (
+    ConflictPoint,
+    Edge,
+    GradeSeparation,
+    MapData,
+    MapMetadata,
+    Node,
+    Stop,
+)
+
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "from_geojson", "read", "to_geojson", "write"]
 
 FORMAT_NAME = "trackmap"
 FORMAT_VERSION = 1
-NODE_CLASSES = ("buffer_stop", "link", "point_switch", "diamond_crossing", "double_slip", "unknown")
-CONFLICT_KINDS = ("merge", "diamond_crossing", "double_slip", "crossing")
 
 
-def to_geojson(net: TrackMap) -> dict[str, Any]:
-    """The map as a GeoJSON-compatible dict (see the module docstring)."""
+def to_geojson(data: MapData, *, stats: Mapping[str, Any]) -> dict[str, Any]:
+    """A map as a GeoJSON-compatible dict (see the module docstring).
+
+    Parameters
+    ----------
+    data : MapData
+        The map's records.
+    stats : mapping
+        Summary figures written to the header (:meth:`trackmap.TrackMap.stats`).
+
+    Returns
+    -------
+    dict
+    """
     features: list[dict[str, Any]] = []
-    for e in net.edges:
+    for e in data.edges:
         features.append(
             {
                 "type": "Feature",
@@ -74,7 +99,7 @@ def to_geojson(net: TrackMap) -> dict[str, Any]:
                 },
             }
         )
-    for n in net.nodes.values():
+    for n in data.nodes:
         features.append(
             {
                 "type": "Feature",
@@ -88,8 +113,8 @@ def to_geojson(net: TrackMap) -> dict[str, Any]:
                 },
             }
         )
-    for c in net.conflicts:
-        lon, lat = net.to_lonlat(c.x, c.y)
+    for c in data.conflicts:
+        lon, lat = data.frame.to_lonlat(c.x, c.y)
         features.append(
             {
                 "type": "Feature",
@@ -108,7 +133,7 @@ def to_geojson(net: TrackMap) -> dict[str, Any]:
                 },
             }
         )
-    for s in net.stops:
+    for s in data.stops:
         features.append(
             {
                 "type": "Feature",
@@ -122,8 +147,8 @@ def to_geojson(net: TrackMap) -> dict[str, Any]:
                 },
             }
         )
-    for a, b, x, y in net.grade_separated:
-        lon, lat = net.to_lonlat(x, y)
+    for a, b, x, y in data.grade_separated:
+        lon, lat = data.frame.to_lonlat(x, y)
         features.append(
             {
                 "type": "Feature",
@@ -134,29 +159,37 @@ def to_geojson(net: TrackMap) -> dict[str, Any]:
     header = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
-        "crs_wkt": net.frame.wkt,
-        **net.metadata.as_dict(),
-        "stats": net.stats(),
+        "crs_wkt": data.frame.wkt,
+        **data.metadata.as_dict(),
+        "stats": dict(stats),
     }
     return {"type": "FeatureCollection", "trackmap": header, "features": features}
 
 
-def save(net: TrackMap, path: str | os.PathLike[str]) -> Path:
-    """Write a map file.
+def write(data: MapData, path: str | os.PathLike[str], *, stats: Mapping[str, Any]) -> Path:
+    """Write a map file (atomically: a partly written file never replaces a good one).
 
     Parameters
     ----------
-    net : TrackMap
+    data : MapData
+        The map's records.
     path : path-like
         Destination, conventionally ``*.trackmap.geojson``.
+    stats : mapping
+        Summary figures written to the header.
 
     Returns
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    trackmap.errors.SourceError
+        The file cannot be written (also an ``OSError``).
     """
     p = Path(path)
-    doc = to_geojson(net)
+    doc = to_geojson(data, stats=stats)
     tmp = p.with_name(p.name + ".tmp")
     try:
         with tmp.open("w", encoding="utf-8") as fh:
@@ -167,8 +200,8 @@ def save(net: TrackMap, path: str | os.PathLike[str]) -> Path:
     return p
 
 
-def load(path: str | os.PathLike[str]) -> TrackMap:
-    """Read and validate a map file.
+def read(path: str | os.PathLike[str]) -> MapData:
+    """The records of a map file, validated (:func:`trackmap.load` builds a TrackMap of them).
 
     Parameters
     ----------
@@ -176,15 +209,15 @@ def load(path: str | os.PathLike[str]) -> TrackMap:
 
     Returns
     -------
-    TrackMap
+    MapData
 
     Raises
     ------
     trackmap.errors.SourceError
-        Missing or unreadable file (also an ``OSError``).
+        The file does not exist or cannot be read.
     trackmap.errors.MapFileError
-        Not a trackmap file, an unsupported version, or broken content; the message names
-        the file and what is wrong (also a ``ValueError``).
+        The file is not valid JSON or not a valid map of this format version; the
+        message starts with the file name.
     """
     p = Path(path)
     if not p.exists():
@@ -202,8 +235,14 @@ def load(path: str | os.PathLike[str]) -> TrackMap:
         raise MapFileError(f"{p}: {exc}") from None
 
 
-def from_geojson(doc: Any) -> TrackMap:
-    """Rebuild a map from its GeoJSON dict, validating everything."""
+def from_geojson(doc: Any) -> MapData:
+    """The records of a map from its GeoJSON dict, validating everything.
+
+    Raises
+    ------
+    trackmap.errors.MapFileError
+        The content is not a valid map of this format version.
+    """
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise MapFileError("not a GeoJSON FeatureCollection")
     header = doc.get("trackmap")
@@ -228,7 +267,7 @@ def from_geojson(doc: Any) -> TrackMap:
     nodes: list[Node] = []
     conflicts: list[ConflictPoint] = []
     stops: list[Stop] = []
-    grade_sep: list[tuple[int, int, float, float]] = []
+    grade_sep: list[GradeSeparation] = []
     for i, feat in enumerate(features):
         where = f"feature {i}"
         if not isinstance(feat, dict):
@@ -258,7 +297,7 @@ def from_geojson(doc: Any) -> TrackMap:
             )
         elif kind == "grade_separated":
             a, b = _req(props, "edges", list, where)
-            grade_sep.append((int(a), int(b), float(props["x"]), float(props["y"])))
+            grade_sep.append(GradeSeparation(int(a), int(b), float(props["x"]), float(props["y"])))
         else:
             raise MapFileError(f"{where}: unknown feature type {kind!r}")
     edges.sort(key=lambda e: e.edge_id)
@@ -300,13 +339,13 @@ def from_geojson(doc: Any) -> TrackMap:
         attribution=str(header.get("attribution", "")),
         created=str(header.get("created", "")),
     )
-    return TrackMap(
+    return MapData(
         frame=frame,
-        edges=edges,
-        nodes=nodes,
-        conflicts=conflicts,
-        stops=stops,
-        grade_separated=grade_sep,
+        edges=tuple(edges),
+        nodes=tuple(nodes),
+        conflicts=tuple(conflicts),
+        stops=tuple(stops),
+        grade_separated=tuple(grade_sep),
         metadata=meta,
     )
 
@@ -395,9 +434,11 @@ def _edge(props: dict[str, Any], geom: dict[str, Any], frame: LocalFrame, where:
 def _node(props: dict[str, Any], geom: dict[str, Any], frame: LocalFrame, where: str) -> Node:
     lon, lat = _point(geom, where)
     x, y = frame.to_local(lon, lat)
-    cls = _req(props, "class", str, where)
-    if cls not in NODE_CLASSES:
-        raise MapFileError(f"{where}: unknown node class {cls!r}")
+    name = _req(props, "class", str, where)
+    try:
+        cls = NodeClass(name)
+    except ValueError:
+        raise MapFileError(f"{where}: unknown node class {name!r}") from None
     ends = tuple(tuple(int(v) for v in end) for end in _req(props, "ends", list, where))
     allowed = tuple(tuple(int(v) for v in pr) for pr in _req(props, "allowed", list, where))
     if any(len(e) != 2 for e in ends) or any(len(p) != 2 for p in allowed):
@@ -415,9 +456,11 @@ def _node(props: dict[str, Any], geom: dict[str, Any], frame: LocalFrame, where:
 
 
 def _conflict(props: dict[str, Any], where: str) -> ConflictPoint:
-    kind = _req(props, "kind", str, where)
-    if kind not in CONFLICT_KINDS:
-        raise MapFileError(f"{where}: unknown conflict kind {kind!r}")
+    name = _req(props, "kind", str, where)
+    try:
+        kind = ConflictKind(name)
+    except ValueError:
+        raise MapFileError(f"{where}: unknown conflict kind {name!r}") from None
     edges = tuple(int(e) for e in _req(props, "edges", list, where))
     offsets = tuple(float(v) for v in _req(props, "offsets_m", list, where))
     extents = tuple(float(v) for v in _req(props, "extents_m", list, where))

@@ -16,11 +16,14 @@ import json
 import math
 import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from trackmap.builder import build
 from trackmap.crs import LocalFrame
 from trackmap.network import TrackMap
+
+__all__ = ["Point", "SyntheticNetwork", "arc", "demo_network"]
 
 Point = tuple[float, float]
 
@@ -69,13 +72,13 @@ class SyntheticNetwork:
 
     def build(self, **build_options: object) -> TrackMap:
         """Build the map (options as for :func:`trackmap.build`)."""
-        from trackmap.build import build
-
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "synthetic.geojson"
             path.write_text(json.dumps(self.to_geojson()), encoding="utf-8")
             net = build(path, **build_options)  # type: ignore[arg-type]
-        net.metadata.attribution = "synthetic network drawn with trackmap.synthetic"
+        net.metadata = replace(
+            net.metadata, attribution="synthetic network drawn with trackmap.synthetic"
+        )
         return net
 
     def lonlat(self, x: float, y: float) -> tuple[float, float]:

@@ -17,7 +17,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from trackmap.errors import NoTracksError, SourceError, SourceFormatError
+from trackmap.errors import MissingDependencyError, NoTracksError, SourceError, SourceFormatError
+from trackmap.optional import require
+
+__all__ = [
+    "KNOWN_KINDS",
+    "LIFECYCLE",
+    "MARKED_SERVICES",
+    "OSMIUM_SUFFIXES",
+    "PROGRESS_BYTES",
+    "TOPOLOGY_NODE_VALUES",
+    "RawStop",
+    "RawWay",
+    "SourceData",
+    "coordinate_node_id",
+    "detect_format",
+    "read_source",
+    "way_rejection",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -158,6 +175,8 @@ def read_source(
         Unknown format or unparsable content (also a ``ValueError``).
     NoTracksError
         No operating track of the requested kinds in the file.
+    MissingDependencyError
+        An OSM XML/PBF file without osmium installed (also an ``ImportError``).
     """
     p = Path(path)
     kind_set = _check_kinds(kinds)
@@ -236,8 +255,7 @@ def _is_stop(tags: Mapping[str, str]) -> bool:
 
 # -- osmium -------------------------------------------------------------------------------
 def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceData:
-    import osmium
-
+    osmium = require("osmium", purpose=f"reading {path.name} (an OSM file)")
     data = SourceData([], [], str(path), "osmium")
     try:
         processor = (
@@ -245,11 +263,9 @@ def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceDat
             .with_locations()
             .with_filter(osmium.filter.KeyFilter("railway", "railway:switch", "public_transport"))
         )
-        iterator: Iterable[Any] = processor
-        if progress:
-            from tqdm import tqdm
-
-            iterator = tqdm(processor, desc=f"reading {path.name}", unit=" obj", leave=False)
+        iterator: Iterable[Any] = (
+            _with_progress(processor, f"reading {path.name}") if progress else processor
+        )
         for obj in iterator:
             if obj.is_node():
                 tags = dict(obj.tags)
@@ -275,6 +291,17 @@ def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceDat
     except RuntimeError as exc:  # libosmium reports parse errors as RuntimeError
         raise SourceFormatError(f"{path}: cannot parse as an OSM file: {exc}") from exc
     return data
+
+
+def _with_progress(items: Iterable[Any], desc: str) -> Iterable[Any]:
+    """``items`` behind a tqdm progress bar, or as they are when tqdm is not installed."""
+    try:
+        tqdm = require("tqdm", purpose="a progress bar").tqdm
+    except MissingDependencyError as exc:
+        # a progress bar is a convenience: never fail a build for the want of one
+        logger.warning("%s; reading without one", exc)
+        return items
+    return tqdm(items, desc=desc, unit=" obj", leave=False)
 
 
 # -- Overpass JSON ------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""Building a :class:`~trackmap.network.TrackMap` from a source file."""
+"""Building a :class:`~trackmap.network.TrackMap` from a source file: read, infer, assemble."""
 
 from __future__ import annotations
 
@@ -13,16 +13,12 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from trackmap.crs import LocalFrame
-from trackmap.network import ConflictPoint, Edge, MapMetadata, Node, Stop, TrackMap
-from trackmap.sources import RawStop, SourceData, read_source
-from trackmap.topology import (
+from trackmap.builder.sources import RawStop, SourceData, read_source
+from trackmap.builder.topology import (
     Piece,
     classify_node,
-    cumulative_length,
     direction_from_side,
     drop_duplicate_pieces,
-    end_tangent,
     find_crossings,
     fouling_distance,
     merge_chains,
@@ -30,6 +26,13 @@ from trackmap.topology import (
     propagate_directions,
     split_ways,
 )
+from trackmap.crs import LocalFrame
+from trackmap.geometry import cumulative_length, end_tangent
+from trackmap.kinds import ConflictKind, NodeClass
+from trackmap.model import ConflictPoint, Edge, GradeSeparation, MapMetadata, Node, Stop
+from trackmap.network import TrackMap
+
+__all__ = ["DRIVING_SIDES", "assemble", "build"]
 
 logger = logging.getLogger(__name__)
 
@@ -84,6 +87,8 @@ def build(
     trackmap.errors.SourceError, trackmap.errors.SourceFormatError,
     trackmap.errors.NoTracksError
         The source cannot be used; the message names the file and the problem.
+    trackmap.errors.MissingDependencyError
+        Reading OSM XML/PBF needs osmium; the message names the extra to install.
     """
     if driving_side not in DRIVING_SIDES:
         raise ValueError(f"driving_side must be 'right' or 'left', got {driving_side!r}")
@@ -267,7 +272,7 @@ def _junction_nodes(
                 lat=coords[nid][1],
                 x=local[nid][0],
                 y=local[nid][1],
-                cls=topo.cls,  # type: ignore[arg-type]
+                cls=topo.cls,
                 ends=topo.ends,
                 allowed=topo.allowed,
             )
@@ -277,14 +282,14 @@ def _junction_nodes(
 
 def _conflicts(
     edges: list[Edge], nodes: list[Node], pieces: list[Piece], clearance: float
-) -> tuple[list[ConflictPoint], list[tuple[int, int, float, float]], list[list[float]]]:
+) -> tuple[list[ConflictPoint], list[GradeSeparation], list[list[float]]]:
     conflicts: list[ConflictPoint] = []
     for node in nodes:
-        if node.cls in ("diamond_crossing", "double_slip"):
+        if node.cls in (NodeClass.DIAMOND_CROSSING, NodeClass.DOUBLE_SLIP):
             conflicts.append(
                 ConflictPoint(
                     conflict_id=len(conflicts),
-                    kind=node.cls,
+                    kind=ConflictKind(node.cls),
                     x=node.x,
                     y=node.y,
                     node_id=node.node_id,
@@ -293,7 +298,7 @@ def _conflicts(
                     extents_m=tuple(clearance for _ in node.ends),
                 )
             )
-        elif node.cls == "point_switch":
+        elif node.cls == NodeClass.POINT_SWITCH:
             paired = {k for pair in node.allowed for k in pair}
             # the trunk is the end allowed with both others
             counts: dict[int, int] = defaultdict(int)
@@ -313,7 +318,7 @@ def _conflicts(
             conflicts.append(
                 ConflictPoint(
                     conflict_id=len(conflicts),
-                    kind="merge",
+                    kind=ConflictKind.MERGE,
                     x=node.x,
                     y=node.y,
                     node_id=node.node_id,
@@ -327,20 +332,20 @@ def _conflicts(
             )
     lines = [e.geometry for e in edges]
     node_xy = [(np.asarray(e.geometry.coords[0]), np.asarray(e.geometry.coords[-1])) for e in edges]
-    grade_sep: list[tuple[int, int, float, float]] = []
+    grade_sep: list[GradeSeparation] = []
     overlaps: list[list[float]] = []
     for hit in find_crossings(lines, [p.attrs for p in pieces], node_xy):
         if hit.overlap:
             overlaps.append([hit.edge_a, hit.edge_b, round(hit.x, 3), round(hit.y, 3)])
             continue
         if hit.grade_separated:
-            grade_sep.append((hit.edge_a, hit.edge_b, hit.x, hit.y))
+            grade_sep.append(GradeSeparation(hit.edge_a, hit.edge_b, hit.x, hit.y))
             continue
         half = min(clearance / max(math.sin(math.radians(max(hit.angle_deg, 1.0))), 0.1), 30.0)
         conflicts.append(
             ConflictPoint(
                 conflict_id=len(conflicts),
-                kind="crossing",
+                kind=ConflictKind.CROSSING,
                 x=hit.x,
                 y=hit.y,
                 node_id=None,

@@ -1,8 +1,8 @@
 """Track topology from raw ways: splitting, merging, node classes, directions, conflicts.
 
 The functions here are pure: they take plain data (node ids, local coordinates, tags) and
-return plain data. :mod:`trackmap.build` runs them in order and assembles a
-:class:`trackmap.network.TrackMap`.
+return plain data. :mod:`trackmap.builder.assemble` runs them in order and assembles a
+:class:`trackmap.TrackMap`.
 
 Node classes follow the rule OSRD uses for inferring track topology: count the edges
 meeting at a node and the pairs of them that a vehicle can pass straight through
@@ -30,12 +30,34 @@ from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
-import numpy.typing as npt
 import shapely
 
-from trackmap.sources import MARKED_SERVICES
+from trackmap.builder.sources import MARKED_SERVICES
+from trackmap.geometry import FloatArray, deflection_deg
+from trackmap.kinds import NodeClass
 
-FloatArray = npt.NDArray[np.float64]
+__all__ = [
+    "CrossingHit",
+    "EdgeEnd",
+    "NodeTopology",
+    "Piece",
+    "SideEvidence",
+    "TrackAttributes",
+    "classify_node",
+    "direction_from_side",
+    "direction_tag",
+    "drop_duplicate_pieces",
+    "find_crossings",
+    "fouling_distance",
+    "grade_separated",
+    "merge_chains",
+    "parallel_neighbours",
+    "parse_layer",
+    "parse_maxspeed_mps",
+    "propagate_directions",
+    "split_ways",
+    "track_attributes",
+]
 
 #: An edge end: (edge index, 0 for the start vertex or 1 for the end vertex).
 EdgeEnd = tuple[int, int]
@@ -304,49 +326,12 @@ def merge_chains(pieces: list[Piece]) -> list[Piece]:
     return merged
 
 
-# -- geometry helpers ---------------------------------------------------------------------
-def cumulative_length(xy: FloatArray) -> FloatArray:
-    """Cumulative length along a polyline (n, 2) -> (n,), metres."""
-    seg = np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))
-    return np.concatenate([[0.0], np.cumsum(seg)])
-
-
-def point_at(xy: FloatArray, cum: FloatArray, s: float) -> FloatArray:
-    """Point at arc length ``s`` along a polyline (clamped to its ends)."""
-    s = min(max(s, 0.0), float(cum[-1]))
-    i = int(np.searchsorted(cum, s, side="right") - 1)
-    i = min(max(i, 0), len(cum) - 2)
-    span = cum[i + 1] - cum[i]
-    f = 0.0 if span <= 0 else (s - cum[i]) / span
-    return np.asarray(xy[i] + f * (xy[i + 1] - xy[i]), dtype=float)
-
-
-def end_tangent(xy: FloatArray, cum: FloatArray, end: int, probe_m: float) -> FloatArray:
-    """Unit vector pointing from an edge end into the edge, measured over ``probe_m``."""
-    length = float(cum[-1])
-    d = min(probe_m, length)
-    vec = point_at(xy, cum, d) - xy[0] if end == 0 else point_at(xy, cum, length - d) - xy[-1]
-    norm = math.hypot(vec[0], vec[1])
-    if norm == 0:
-        return np.array([0.0, 0.0])
-    return np.asarray(vec / norm, dtype=float)
-
-
-def deflection_deg(u: FloatArray, v: FloatArray) -> float:
-    """Deflection of a move in along ``-u`` and out along ``v``: 0 straight, 180 reversal.
-
-    ``u`` and ``v`` are the unit vectors pointing from the node into each edge.
-    """
-    cos = float(np.clip(-(u @ v), -1.0, 1.0))
-    return math.degrees(math.acos(cos))
-
-
 # -- node classes -------------------------------------------------------------------------
 @dataclass(frozen=True, slots=True)
 class NodeTopology:
     """Class and allowed moves of one junction node."""
 
-    cls: str
+    cls: NodeClass
     ends: tuple[EdgeEnd, ...]
     allowed: tuple[tuple[int, int], ...]  # pairs of indices into ``ends``
     deflections: tuple[float, ...]  # per allowed pair, degrees
@@ -392,32 +377,32 @@ def classify_node(
     straight = [pr for pr, d in defl.items() if d <= max_deflection_deg]
     passable = [pr for pr, d in defl.items() if d <= link_max_deflection_deg]
     switch_tag = tags.get("railway:switch")
-    cls: str
+    cls: NodeClass
     allowed: list[tuple[int, int]]
     if n == 1:
-        cls, allowed = "buffer_stop", []
+        cls, allowed = NodeClass.BUFFER_STOP, []
     elif n == 2:
-        cls, allowed = "link", passable
+        cls, allowed = NodeClass.LINK, passable
     elif n == 3 and (tags.get("railway") == "switch" or switch_tag in ("default", "wye", "abt")):
         # a tagged switch: the trunk is the end the other two diverge from
         branch_pair = max(defl, key=lambda pr: defl[pr])
-        cls, allowed = "point_switch", [pr for pr in defl if pr != branch_pair]
+        cls, allowed = NodeClass.POINT_SWITCH, [pr for pr in defl if pr != branch_pair]
     elif n == 4 and switch_tag in ("double_slip", "single_slip"):
-        cls, allowed = "double_slip", straight
+        cls, allowed = NodeClass.DOUBLE_SLIP, straight
     elif n == 4 and (tags.get("railway") == "railway_crossing" or _two_disjoint(through_pairs)):
         pairs = list(through_pairs) if _two_disjoint(through_pairs) else _straightest_disjoint(defl)
         cls, allowed = (
-            "diamond_crossing",
+            NodeClass.DIAMOND_CROSSING,
             [pr for pr in pairs if defl[pr] <= link_max_deflection_deg],
         )
     elif n == 3 and len(straight) == 2:
-        cls, allowed = "point_switch", straight
+        cls, allowed = NodeClass.POINT_SWITCH, straight
     elif n == 4 and len(straight) == 2 and _two_disjoint(straight):
-        cls, allowed = "diamond_crossing", straight
+        cls, allowed = NodeClass.DIAMOND_CROSSING, straight
     elif n == 4 and len(straight) == 4:
-        cls, allowed = "double_slip", straight
+        cls, allowed = NodeClass.DOUBLE_SLIP, straight
     else:
-        cls, allowed = "unknown", straight
+        cls, allowed = NodeClass.UNKNOWN, straight
     allowed = sorted(allowed)
     return NodeTopology(
         cls=cls,
