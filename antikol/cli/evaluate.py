@@ -174,8 +174,11 @@ def _demo(args: argparse.Namespace) -> int:
     (args.out / "city.json").write_text(json.dumps(comp.as_dict(), indent=2))
     print(format_table([comp]))
     print(
-        f"(FA = false-alarm episodes on clearly conflict-free pairs; lead = mean warning "
-        f"lead of timely warnings; {comp.truth.vehicle_hours():.1f} vehicle-hours)"
+        "(missed includes late warnings, counted in '(late)'; start% = alarm within "
+        "[start - 5 s, start + 1 s]; lead = mean lead of timely warnings; FA/vh = "
+        "false-alarm episodes on clearly conflict-free pairs and toggle/vh = lamp toggles "
+        "per vehicle-hour; nuis% = lamp on away from any need, share of vehicle time; "
+        f"{comp.truth.vehicle_hours():.1f} vehicle-hours)"
     )
     print(
         f"figure: {fig}; scores: {args.out / 'city.json'}; {time.perf_counter() - t0:.0f} s in all"

@@ -101,7 +101,8 @@ class SimulationResult:
         path : str or path-like
         extra_columns : sequence of str
             Any of :data:`~antikol.ingest.replaylog.REPLAY_OPTIONAL_COLUMNS` (``braking``,
-            ``length_m``, ``antenna_offset_m``, ``seq``).
+            ``length_m``, ``antenna_offset_m``, ``seq``, ``hdop``, ``fix_quality``,
+            ``odometer_m``).
 
         Returns
         -------
