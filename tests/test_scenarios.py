@@ -18,7 +18,9 @@ from antikol.evaluation.scoring import Score, compare
 from trackmap.synthetic import demo_network
 
 SYNTHETIC = demo_network().build()
-CLASSES = [name for name in SCENARIOS if name != "city"]
+# wrong-way running on double track: whether positioning and the analyser catch it is
+# measured in tests/test_positioning_accuracy.py (a hook for the lead), not asserted here
+CLASSES = [name for name in SCENARIOS if name not in ("city", "wrong_way_single_line")]
 
 
 @pytest.fixture(scope="module")

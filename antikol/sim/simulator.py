@@ -249,8 +249,9 @@ class Simulator:
             steps = spec.route.steps
             for e, _ in steps:
                 net.edge(e)
+            graph = net.traversal_any if spec.route.wrong_way else net.traversal
             for a, b in itertools.pairwise(steps):
-                if not net.traversal.has_edge(a, b):
+                if not graph.has_edge(a, b):
                     raise ValueError(
                         f"tram {spec.vehicle_id}: its route moves {a} -> {b}, which this map "
                         "does not permit (a route of another map?)"
