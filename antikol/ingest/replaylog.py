@@ -4,10 +4,10 @@ A replay CSV has a header line. It starts with the required columns
 ``vehicle_id,t,lat,lon,speed_mps,course_deg`` (:data:`REPLAY_COLUMNS`, in this order).
 Any of the optional columns ``braking``, ``length_m``, ``antenna_offset_m``, ``seq``,
 ``hdop``, ``fix_quality`` and ``odometer_m`` (:data:`REPLAY_OPTIONAL_COLUMNS`) may follow,
-in any order; the reader puts them into the reports, and an empty cell means "not given" (the report's default: ``braking="none"``,
-the others None). Other columns after the required ones are ignored; an optional column
-named twice in the header is an error. Units are those of
-:class:`~antikol.report.VehicleReport` (s, degrees, m/s, metres).
+in any order; the reader puts them into the reports, and an empty cell means "not given"
+(the report's default: ``braking="none"``, the others None). Other columns after the
+required ones are ignored; an optional column named twice in the header is an error.
+Units are those of :class:`~antikol.report.VehicleReport` (s, degrees, m/s, metres).
 
 Recorded logs may also be a directory of per-vehicle NMEA logs (:func:`read_nmea_logs`).
 """
