@@ -579,26 +579,34 @@ def wrong_way_single_line(
     a crossover) towards a tram running the right way on it: a head-on conflict on what
     looks like an ordinary double track."""
 
-    def build(pair: tuple[State, float, State, float]) -> Scenario:
-        _a_state, _a_at, b_state, b_at = pair
+    def build(place: tuple[tuple[State, float, State, float], list[State] | None]) -> Scenario:
+        (_a_state, _a_at, b_state, b_at), chain = place
         wrong = (b_state[0], -b_state[1])
-        chain = crossover_into(net, wrong)
-        note = "(it starts on the wrong track)"
         if chain is not None:
+            # over the crossover onto the wrong track; the trams meet 150 m past it
             back = walk(net, chain[0], 250.0, forward=False)
-            ahead = walk(net, wrong, 300.0, forward=True, physical=True)
+            ahead = walk(net, wrong, 400.0, forward=True, physical=True)
             full = Route.from_steps(net, [*back, *chain, *ahead], wrong_way=True)
-            where_w = full.distance_of(b_state[0], b_at, after_m=0.0)
-            if where_w is None:  # pragma: no cover - the chain ends on this edge
-                raise ScenarioUnavailable("the crossover route misses the double track")
-            rw = trim(net, full, 0.0, min(where_w + 250.0, full.length_m))
+            k_in = len(back) + next(
+                k for k, st in enumerate(chain) if not net.edges[st[0]].allows(st[1])
+            )
+            meet = float(full.entry_m[k_in]) + 150.0
+            if meet > full.length_m - 50.0:
+                raise ScenarioUnavailable("the wrong-way track past the crossover is too short")
+            e, off, d = full.locate(meet)
+            if net.edges[e].allows(d):
+                raise ScenarioUnavailable("the track 150 m past the crossover is not wrong way")
+            rw, where_w = trim(net, full, 0.0, min(meet + 250.0, full.length_m)), meet
+            o_state, o_at = (e, -d), off
             note = "(it enters over a crossover)"
         else:
             rw, where_w = route_through(
                 net, wrong, b_at, 300.0, 250.0, need_before_m=150.0, physical=True
             )
-        ro, where_o = route_through(net, b_state, b_at, 300.0, 250.0, need_before_m=150.0)
-        approach = min(where_w, where_o, 300.0)
+            o_state, o_at = b_state, b_at
+            note = "(it starts on the wrong track: no crossover leads there)"
+        ro, where_o = route_through(net, o_state, o_at, 400.0, 250.0, need_before_m=150.0)
+        approach = min(where_w, where_o, 400.0)
         rw, ro = _sub(net, rw, where_w - approach), _sub(net, ro, where_o - approach)
         cap = (ScriptEvent.speed_cap(0.0, 6.0),)
         w = _spec("W", rw, initial_speed_mps=6.0, script=cap)
@@ -614,7 +622,12 @@ def wrong_way_single_line(
             focus=("W", "O"),
         )
 
-    return _first_place("double-track pair of at least 300 m", double_track_pairs(net), build)
+    pairs = double_track_pairs(net)
+    chains = [crossover_into(net, (p[2][0], -p[2][1]), within_m=1500.0) for p in pairs[:60]]
+    Place = tuple[tuple[State, float, State, float], list[State] | None]
+    places: list[Place] = [(p, c) for p, c in zip(pairs, chains, strict=False) if c is not None]
+    places += [(p, None) for p in pairs]  # no crossover: start on the wrong track
+    return _first_place("double-track pair of at least 300 m", places, build)
 
 
 def city(net: TrackMap, *, seed: int = 0, trams: int = 20, minutes: float = 30.0) -> Scenario:
