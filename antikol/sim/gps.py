@@ -34,6 +34,7 @@ __all__ = [
     "Epochs",
     "GpsModel",
     "blocked_after_tunnels",
+    "check_fields",
     "epochs",
     "held_course",
     "make_reports",
@@ -99,30 +100,20 @@ class GpsModel:
     course_hold_speed_mps: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in (
-            "sigma_m",
-            "bias_sigma_m",
-            "outlier_sigma_m",
-            "tunnel_reacquire_s",
-            "speed_sigma_mps",
-            "course_sigma_deg",
-            "course_hold_speed_mps",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"GpsModel.{name} must be a finite number >= 0, got {value!r}")
-        for name in ("outlier_rate", "missing_rate"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and 0.0 <= value <= 1.0):
-                raise ValueError(f"GpsModel.{name} must be a probability in [0, 1], got {value!r}")
-        if not (isinstance(self.bias_tau_s, int | float) and self.bias_tau_s > 0):
-            raise ValueError(f"GpsModel.bias_tau_s must be > 0 s, got {self.bias_tau_s!r}")
-        if not (
-            isinstance(self.rate_hz, int | float)
-            and math.isfinite(self.rate_hz)
-            and 0 < self.rate_hz <= 100
-        ):
-            raise ValueError(f"GpsModel.rate_hz must be in (0, 100] Hz, got {self.rate_hz!r}")
+        check_fields(
+            self,
+            non_negative=(
+                "sigma_m",
+                "bias_sigma_m",
+                "outlier_sigma_m",
+                "tunnel_reacquire_s",
+                "speed_sigma_mps",
+                "course_sigma_deg",
+                "course_hold_speed_mps",
+            ),
+            probabilities=("outlier_rate", "missing_rate"),
+            positive=("bias_tau_s",),
+        )
 
     @classmethod
     def urban(cls, **overrides: Any) -> UrbanGpsModel:
@@ -149,6 +140,49 @@ class GpsModel:
             course_sigma_deg=0.0,
             rate_hz=rate_hz,
         )
+
+
+def check_fields(
+    model: Any,
+    *,
+    non_negative: tuple[str, ...] = (),
+    probabilities: tuple[str, ...] = (),
+    positive: tuple[str, ...] = (),
+) -> None:
+    """Validate a receiver model's fields, and its ``rate_hz`` in (0, 100] Hz.
+
+    Parameters
+    ----------
+    model : object
+        A frozen receiver model (its class name goes into the messages).
+    non_negative, probabilities, positive : tuple of str
+        Fields that must be finite and >= 0, in [0, 1], and > 0.
+
+    Raises
+    ------
+    ValueError
+        The first field out of its domain, by name.
+    """
+    cls = type(model).__name__
+
+    def number(value: object) -> bool:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+
+    for name in non_negative:
+        value = getattr(model, name)
+        if not (number(value) and math.isfinite(value) and value >= 0):
+            raise ValueError(f"{cls}.{name} must be a finite number >= 0, got {value!r}")
+    for name in probabilities:
+        value = getattr(model, name)
+        if not (number(value) and 0.0 <= value <= 1.0):
+            raise ValueError(f"{cls}.{name} must be a probability in [0, 1], got {value!r}")
+    for name in positive:
+        value = getattr(model, name)
+        if not (number(value) and value > 0):
+            raise ValueError(f"{cls}.{name} must be > 0, got {value!r}")
+    rate = model.rate_hz
+    if not (number(rate) and math.isfinite(rate) and 0 < rate <= 100):
+        raise ValueError(f"{cls}.rate_hz must be in (0, 100] Hz, got {rate!r}")
 
 
 def noise_generators(seed: int, vehicle_id: str) -> tuple[np.random.Generator, np.random.Generator]:

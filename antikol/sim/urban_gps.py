@@ -42,6 +42,7 @@ from antikol.report import VehicleReport
 from antikol.sim.gps import (
     GpsModel,
     blocked_after_tunnels,
+    check_fields,
     epochs,
     held_course,
     make_reports,
@@ -144,45 +145,31 @@ class UrbanGpsModel:
     canyon_seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in (
-            "sigma_m",
-            "bias_open_m",
-            "bias_canyon_lateral_m",
-            "bias_canyon_along_m",
-            "outlier_sigma_m",
-            "dropout_open_hz",
-            "dropout_canyon_hz",
-            "tunnel_reacquire_s",
-            "speed_sigma_mps",
-            "course_sigma_deg",
-            "course_hold_speed_mps",
-            "odometer_scale_sigma",
-            "odometer_resolution_m",
-            "canyon_spread",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(
-                    f"UrbanGpsModel.{name} must be a finite number >= 0, got {value!r}"
-                )
-        for name in ("outlier_rate", "missing_rate", "canyon_open", "canyon_double_track"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and 0.0 <= value <= 1.0):
-                raise ValueError(f"UrbanGpsModel.{name} must be in [0, 1], got {value!r}")
-        for name in ("bias_tau_s", "jump_interval_s", "dropout_mean_s"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and value > 0):
-                raise ValueError(f"UrbanGpsModel.{name} must be > 0 s, got {value!r}")
+        check_fields(
+            self,
+            non_negative=(
+                "sigma_m",
+                "bias_open_m",
+                "bias_canyon_lateral_m",
+                "bias_canyon_along_m",
+                "outlier_sigma_m",
+                "dropout_open_hz",
+                "dropout_canyon_hz",
+                "tunnel_reacquire_s",
+                "speed_sigma_mps",
+                "course_sigma_deg",
+                "course_hold_speed_mps",
+                "odometer_scale_sigma",
+                "odometer_resolution_m",
+                "canyon_spread",
+            ),
+            probabilities=("outlier_rate", "missing_rate", "canyon_open", "canyon_double_track"),
+            positive=("bias_tau_s", "jump_interval_s", "dropout_mean_s"),
+        )
         if self.tail_dof is not None and not (
             isinstance(self.tail_dof, int | float) and 2.0 < self.tail_dof < math.inf
         ):
             raise ValueError(f"UrbanGpsModel.tail_dof must be > 2 or None, got {self.tail_dof!r}")
-        if not (
-            isinstance(self.rate_hz, int | float)
-            and math.isfinite(self.rate_hz)
-            and 0 < self.rate_hz <= 100
-        ):
-            raise ValueError(f"UrbanGpsModel.rate_hz must be in (0, 100] Hz, got {self.rate_hz!r}")
         if isinstance(self.canyon_seed, bool) or not isinstance(self.canyon_seed, int):
             raise ValueError(f"UrbanGpsModel.canyon_seed must be an int, got {self.canyon_seed!r}")
 
