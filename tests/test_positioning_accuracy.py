@@ -1,15 +1,29 @@
 """Measured accuracy of track-selective positioning on simulated Kraków traces.
 
-GPS white noise sigma 3 m plus a Gauss-Markov bias (1.5 m, 60 s), 1 Hz, 10 % of fixes
-missing, speeds up to 70 km/h; fixed seeds.
+The easy case: GPS white noise sigma 3 m plus a Gauss-Markov bias (1.5 m, 60 s), 1 Hz, 10 %
+of fixes missing, speeds up to 70 km/h; fixed seeds. The realistic case (issue 12): the
+street receiver of ``GpsModel.urban()`` — a lateral multipath bias of up to ~4 m on double
+track that persists for minutes and jumps, heavy tails, outages, an odometer and no-fix
+reports in the tunnel. Its thresholds are what the current positioner achieves with a
+margin (measured on seeds 4-6: right track on double track 0.97-0.98, right branch
+0.93-0.97, confident and wrong 1.0-1.3 %, disconnected 10-s windows 2-4 %); tighten them as
+positioning improves.
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 import trackmap
-from antikol.evaluation.positioning_accuracy import PositioningScore, positioning_accuracy
+from antikol.evaluation.positioning_accuracy import (
+    PositioningScore,
+    positioning_accuracy,
+    wrong_way_positioning,
+)
+from antikol.evaluation.scenarios import build_scenario, run_scenario
+from antikol.evaluation.scoring import compare
 from antikol.sim import GpsModel, Simulator, fleet
 
 SEEDS = (2, 3)
@@ -45,3 +59,67 @@ def test_right_branch_50_m_after_a_switch(scores):
 def test_along_track_error_a_third_below_raw_projection(scores):
     for s in scores:
         assert s.along_rmse_m <= (1.0 - 1.0 / 3.0) * s.raw_along_rmse_m
+
+
+# -- realistic street GPS (issue 12) ---------------------------------------------------------
+@pytest.fixture(scope="module")
+def urban() -> PositioningScore:
+    net = trackmap.load_default()
+    result = Simulator(
+        net, fleet(net, 12, 4), gps=GpsModel.urban(), seed=4, default_speed_mps=70 / 3.6
+    ).run(600.0)
+    assert any(r.fix_quality == 0 for r in result.reports)  # outages and the tunnel
+    return positioning_accuracy(net, result)
+
+
+def test_realistic_bias_right_track_on_double_track_and_after_switches(urban):
+    assert urban.double_track_fixes > 4000 and urban.after_switch_fixes > 100
+    assert urban.double_track_right_share >= 0.95
+    assert urban.double_track_accuracy >= 0.94
+    assert urban.branch_accuracy >= 0.90
+
+
+def test_realistic_bias_confident_and_wrong_is_rare(urban):
+    assert urban.confident_fixes > 0.9 * urban.fixes
+    assert urban.confident_wrong_share <= 0.03
+
+
+def test_realistic_bias_reliability_table_and_direction(urban):
+    top = urban.reliability[-1]
+    assert (top.lo, top.hi) == (0.99, 1.0)
+    assert top.fixes > 0.8 * urban.fixes
+    assert top.share_right is not None and top.share_right >= 0.97
+    assert sum(b.fixes for b in urban.reliability) == urban.fixes - urban.unmatched
+    assert urban.right_way_share >= 0.99
+    assert urban.windows > 500
+    assert urban.disconnected_share <= 0.08
+
+
+# -- wrong-way running (a hook for positioning) ------------------------------------------
+@pytest.fixture(scope="module")
+def wrong_way():
+    net = trackmap.load_default()
+    scn = build_scenario("wrong_way_single_line", net, seed=1)
+    scn = dataclasses.replace(scn, gps=GpsModel.exact())
+    result = run_scenario(scn)
+    return scn, wrong_way_positioning(net, result, "W"), compare(net, result, name=scn.name)
+
+
+def test_the_wrong_way_scenario_runs_wrong_way_over_a_crossover(wrong_way):
+    scn, ww, comparison = wrong_way
+    assert "crossover" in scn.description and scn.specs[0].route.wrong_way
+    assert ww.fixes >= 20  # W runs against the permitted direction for 20 s and more
+    assert comparison.track.required >= 1  # a head-on conflict with O on that track
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="positioning puts a tram running wrong way on the adjacent, permitted track "
+    "(confident, never flagged wrong_way; measured: 0 of 40 fixes on the true track with "
+    "exact GPS) and the track-aware analyser misses the head-on conflict",
+)
+def test_positioning_detects_wrong_way_running(wrong_way):
+    _, ww, comparison = wrong_way
+    assert ww.detected_share >= 0.8
+    assert ww.first_detection_s is not None and ww.first_detection_s <= 10.0
+    assert comparison.track.missed == 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -10,12 +11,22 @@ from antikol.cli.common import add_map_option, load_map
 
 __all__ = ["add_parsers"]
 
+logger = logging.getLogger(__name__)
+
 
 def _scenario_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     p.add_argument("--trams", type=int, default=20, help="city scenario: trams (default 20)")
     p.add_argument(
         "--minutes", type=float, default=30.0, help="city scenario: simulated minutes (default 30)"
+    )
+    p.add_argument(
+        "--gps",
+        choices=("white", "urban"),
+        default="white",
+        help="receiver model: 'white' (white noise and a slow bias, the scenarios' own) or "
+        "'urban' (multipath bias worst on double track, jumps, heavy tails, outages, "
+        "odometer; GpsModel.urban())",
     )
 
 
@@ -83,16 +94,30 @@ def _params(name: str, args: argparse.Namespace) -> dict[str, Any]:
     return params
 
 
+def _build(name: str, net: Any, args: argparse.Namespace) -> Any:
+    """The named scenario on ``net`` with the chosen receiver model."""
+    import dataclasses
+
+    from antikol.evaluation.scenarios import build_scenario
+    from antikol.sim import GpsModel
+
+    scn = build_scenario(name, net, **_params(name, args))
+    if getattr(args, "gps", "white") == "urban":
+        scn = dataclasses.replace(scn, gps=GpsModel.urban())
+    return scn
+
+
 def _simulate(args: argparse.Namespace) -> int:
-    from antikol.evaluation.scenarios import build_scenario, run_scenario
+    from antikol.evaluation.scenarios import run_scenario
 
     net = load_map(args.map)
     if net is None:
         raise ValueError("simulate needs a map (--map default, synthetic or a map file)")
     (name,) = _scenario_names(args.scenario)
-    scn = build_scenario(name, net, **_params(name, args))
+    scn = _build(name, net, args)
     result = run_scenario(scn, progress=True)
-    result.write_csv(args.output)
+    extra = ("fix_quality", "odometer_m") if args.gps == "urban" else ()
+    result.write_csv(args.output, extra_columns=extra)
     print(
         f"{name}: {len(result.truth)} vehicles, {result.duration_s:g} s simulated, "
         f"{len(result.reports)} reports written to {args.output}"
@@ -105,21 +130,33 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _run_comparisons(
-    net: Any, names: list[str], args: argparse.Namespace, figures: Path | None
+    net: Any,
+    names: list[str],
+    args: argparse.Namespace,
+    figures: Path | None,
+    failed: list[str] | None = None,
 ) -> tuple[list[Any], list[str]]:
+    """Compare on each named scenario; those the map cannot host go to the skipped list,
+    those that fail (a bug) to ``failed`` (or raise when it is None)."""
     from antikol.evaluation.figures import comparison_figure
-    from antikol.evaluation.scenarios import ScenarioUnavailable, build_scenario, run_scenario
+    from antikol.evaluation.scenarios import ScenarioUnavailable, run_scenario
     from antikol.evaluation.scoring import compare
 
     done, skipped = [], []
     for name in names:
         try:
-            scn = build_scenario(name, net, **_params(name, args))
+            scn = _build(name, net, args)
+            result = run_scenario(scn, progress=name == "city")
+            comp = compare(net, result, name=name, progress=True, off_map=scn.off_map.keys())
         except ScenarioUnavailable as exc:
             skipped.append(f"{name}: {exc}")
             continue
-        result = run_scenario(scn, progress=name == "city")
-        comp = compare(net, result, name=name, progress=True, off_map=scn.off_map.keys())
+        except Exception as exc:
+            if failed is None:
+                raise
+            logger.exception("scenario %s failed", name)
+            failed.append(f"{name}: {type(exc).__name__}: {exc}")
+            continue
         done.append(comp)
         if figures is not None:
             figures.mkdir(parents=True, exist_ok=True)
@@ -136,21 +173,28 @@ def _compare(args: argparse.Namespace) -> int:
     net = load_map(args.map)
     if net is None:
         raise ValueError("compare needs a map (--map default, synthetic or a map file)")
-    done, skipped = _run_comparisons(net, _scenario_names(args.scenario), args, args.figures)
+    failed: list[str] = []
+    names = _scenario_names(args.scenario)
+    done, skipped = _run_comparisons(net, names, args, args.figures, failed)
+    status = 1 if failed else 0
     if args.json:
-        print(
-            json.dumps(
-                {"map": args.map, "scenarios": [c.as_dict() for c in done], "skipped": skipped},
-                indent=2,
-            )
-        )
-        return 0
+        doc = {
+            "map": args.map,
+            "gps": args.gps,
+            "scenarios": [c.as_dict() for c in done],
+            "skipped": skipped,
+            "failed": failed,
+        }
+        print(json.dumps(doc, indent=2))
+        return status
     print(format_table(done))
     for line in skipped:
         print(f"skipped {line}")
+    for line in failed:
+        print(f"FAILED {line}")
     if args.figures is not None:
         print(f"figures written to {args.figures}/")
-    return 0
+    return status
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -174,8 +218,11 @@ def _demo(args: argparse.Namespace) -> int:
     (args.out / "city.json").write_text(json.dumps(comp.as_dict(), indent=2))
     print(format_table([comp]))
     print(
-        f"(FA = false-alarm episodes on clearly conflict-free pairs; lead = mean warning "
-        f"lead of timely warnings; {comp.truth.vehicle_hours():.1f} vehicle-hours)"
+        "(missed includes late warnings, counted in '(late)'; start% = alarm within "
+        "[start - 5 s, start + 1 s]; lead = mean lead of timely warnings; FA/vh = "
+        "false-alarm episodes on clearly conflict-free pairs and toggle/vh = lamp toggles "
+        "per vehicle-hour; nuis% = lamp on away from any need, share of vehicle time; "
+        f"{comp.truth.vehicle_hours():.1f} vehicle-hours)"
     )
     print(
         f"figure: {fig}; scores: {args.out / 'city.json'}; {time.perf_counter() - t0:.0f} s in all"

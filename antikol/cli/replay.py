@@ -18,7 +18,16 @@ def add_parser(sub: Any) -> None:
     r.add_argument(
         "log",
         type=Path,
-        help="CSV (vehicle_id,t,lat,lon,speed_mps,course_deg) or a directory of NMEA logs",
+        help="replay CSV (vehicle_id,t,lat,lon,speed_mps,course_deg), a directory of NMEA "
+        "logs, an HSL HFP log (JSON lines or CSV) or GTFS-realtime VehiclePositions (a "
+        "feed file or a directory of them)",
+    )
+    r.add_argument(
+        "--format",
+        dest="log_format",
+        choices=("auto", "csv", "nmea", "hfp", "gtfs-rt"),
+        default="auto",
+        help="log format (default: recognised by name and content)",
     )
     r.add_argument(
         "-o",
@@ -44,18 +53,19 @@ def add_parser(sub: Any) -> None:
 def _replay(args: argparse.Namespace) -> int:
     from antikol.analysis.analyser import Analyser
     from antikol.evaluation.replay import EventWriter, replay
-    from antikol.ingest.replaylog import read_nmea_logs, read_replay_csv
+    from antikol.ingest.feeds import detect_log_format, read_log
 
-    log = (
-        read_nmea_logs(args.log)
-        if args.log.is_dir()
-        else read_replay_csv(args.log, strict=args.strict)
-    )
+    fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
+    log = read_log(args.log, log_format=fmt, strict=args.strict)
     for problem in log.problems[:20]:
-        where = f"line {problem.line}" if problem.line else "NMEA"
-        print(f"skipped {where}: {problem.reason}", file=sys.stderr)
+        what = "note" if problem.kept else "skipped"
+        print(f"{what} {problem.where()}: {problem.reason}", file=sys.stderr)
     if len(log.problems) > 20:
-        print(f"... and {len(log.problems) - 20} more skipped rows", file=sys.stderr)
+        print(f"... and {len(log.problems) - 20} more bad records", file=sys.stderr)
+    for reason, n in sorted(log.ignored.items()):
+        print(f"ignored {n} record(s): {reason}", file=sys.stderr)
+    if not log.reports:
+        raise ValueError(f"{args.log}: no usable report in the {fmt} log")
     net = load_map(args.map)
     analyser = Analyser(track_map=net)
     with EventWriter(args.events) as events:
@@ -64,7 +74,7 @@ def _replay(args: argparse.Namespace) -> int:
         )
     method = "track-aware analyser" if net is not None else "sector rule (no map)"
     print(
-        f"replayed {summary.reports} reports of {summary.vehicles} vehicles in "
+        f"replayed {summary.reports} reports ({fmt}) of {summary.vehicles} vehicles in "
         f"{summary.cycles} cycles of {args.cycle:g} s with the {method}"
     )
     print(

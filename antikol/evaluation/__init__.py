@@ -1,6 +1,7 @@
 """Evaluation tools: scenarios, ground truth, scoring, positioning accuracy and log replay.
 
-* :mod:`~antikol.evaluation.scenarios` — named, parameterised simulator scenarios;
+* :mod:`~antikol.evaluation.scenarios` — named, parameterised simulator scenarios, placed
+  on any map by :mod:`~antikol.evaluation.scenario_places`;
 * :mod:`~antikol.evaluation.groundtruth` — which vehicle pairs need a warning, from the
   simulator's true states;
 * :mod:`~antikol.evaluation.scoring` — analysers scored against the ground truth, and the
@@ -13,7 +14,15 @@
 """
 
 from antikol.evaluation.groundtruth import GroundTruth, Passage, analysis_times, ground_truth
-from antikol.evaluation.positioning_accuracy import PositioningScore, positioning_accuracy
+from antikol.evaluation.positioning_accuracy import (
+    FixEvaluation,
+    PositioningScore,
+    ReliabilityBin,
+    WrongWayScore,
+    evaluate_fixes,
+    positioning_accuracy,
+    wrong_way_positioning,
+)
 from antikol.evaluation.replay import EVENT_COLUMNS, EventWriter, ReplaySummary, cycles, replay
 from antikol.evaluation.scenarios import (
     SCENARIOS,
@@ -25,6 +34,7 @@ from antikol.evaluation.scenarios import (
 from antikol.evaluation.scoring import (
     AlarmLog,
     Comparison,
+    MissedEpisode,
     Score,
     compare,
     format_table,
@@ -38,17 +48,22 @@ __all__ = [
     "AlarmLog",
     "Comparison",
     "EventWriter",
+    "FixEvaluation",
     "GroundTruth",
+    "MissedEpisode",
     "Passage",
     "PositioningScore",
+    "ReliabilityBin",
     "ReplaySummary",
     "Scenario",
     "ScenarioUnavailable",
     "Score",
+    "WrongWayScore",
     "analysis_times",
     "build_scenario",
     "compare",
     "cycles",
+    "evaluate_fixes",
     "format_table",
     "ground_truth",
     "positioning_accuracy",
@@ -56,4 +71,5 @@ __all__ = [
     "run_analyser",
     "run_scenario",
     "score",
+    "wrong_way_positioning",
 ]

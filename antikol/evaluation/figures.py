@@ -80,8 +80,9 @@ def comparison_figure(
         score = comparison.sector if method == "sector" else comparison.track
         title = "sector rule (2008 paper)" if method == "sector" else "track-aware analyser"
         ax.set_title(
-            f"{title}\nrequired {score.required}: timely {score.timely}, late {score.late}, "
-            f"missed {score.missed}; false-alarm episodes {score.false_alarm_episodes}",
+            f"{title}\nrequired {score.required}: timely {score.timely}, "
+            f"missed {score.missed} ({score.late} late); "
+            f"false-alarm episodes {score.false_alarm_episodes}",
             fontsize=9,
         )
         ax.set_xlim(box[0], box[1])

@@ -1,23 +1,143 @@
-"""Accuracy of track-selective positioning against the simulator's true states."""
+"""Accuracy of track-selective positioning against the simulator's true states.
+
+:func:`evaluate_fixes` runs a :class:`~antikol.positioning.matcher.Positioner` over a
+simulation's reports, one analysis cycle at a time, and judges every estimate against the
+truth (:class:`FixEvaluation`). :func:`positioning_accuracy` sums them up
+(:class:`PositioningScore`):
+
+* **right track and direction on double track** (an opposite-direction track within 6 m)
+  and **right branch** 40–60 m past a facing switch;
+* **confident and wrong** — estimates of status ``confident`` on the wrong track: the
+  failure a collision warning cannot see coming;
+* a **reliability table** — bins of the estimate's ``probability`` against the share of
+  them on the right track (a calibrated positioner is right as often as it says);
+* **right way** — moving fixes placed on a track running the vehicle's way;
+* **disconnected 10-s windows** — windows in which two successive matched positions of a
+  vehicle are connected by no permitted route (``net.route_distance`` with
+  ``respect_direction=True``, within what the vehicle can run in between plus a margin,
+  and arriving in the estimated direction), allowing a small step back along the track;
+* along-track RMS error of the filtered and the raw position.
+
+:func:`wrong_way_positioning` measures what positioning makes of a vehicle that really
+runs against the permitted direction (the ``wrong_way_single_line`` scenario).
+"""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 import shapely
 
+from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
+from antikol.positioning.records import TrackPosition
 from antikol.sim import Route, SimulationResult
+from antikol.sim.places import on_double_track
 from trackmap import TrackMap
 
-__all__ = ["PositioningScore", "positioning_accuracy"]
+__all__ = [
+    "RELIABILITY_EDGES",
+    "FixEvaluation",
+    "PositioningScore",
+    "ReliabilityBin",
+    "WrongWayScore",
+    "evaluate_fixes",
+    "positioning_accuracy",
+    "wrong_way_positioning",
+]
+
+#: Bin edges of the reliability table (probability of the estimate).
+RELIABILITY_EDGES: Final = (0.0, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0)
+_MOVING_MPS: Final = 1.0  # a vehicle this fast or faster is moving
+_WINDOW_S: Final = 10.0
+_MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
+_REACH_MARGIN_M: Final = 30.0
+_STEP_BACK_M: Final = 10.0  # a filtered position may step back this much along the track
 
 
-@dataclass
+@dataclass(frozen=True, slots=True)
+class FixEvaluation:
+    """One report's position estimate judged against the truth.
+
+    Attributes
+    ----------
+    vehicle_id : str
+    t : float
+        Report time, s.
+    status : str
+        The estimate's status.
+    probability : float
+    matched : bool
+        Confident or ambiguous, with a track position.
+    right_track : bool
+        On the vehicle's true route, within ``track_tolerance_m`` of the true antenna
+        position along it, in the true running direction.
+    correct : bool
+        ``right_track`` and within ``tolerance_m`` along the track.
+    double_track, after_switch : bool
+        The vehicle is on double track; 40–60 m past a facing switch.
+    moving : bool
+        True speed of 1 m/s or more.
+    right_way : bool
+        Matched on a track permitting the estimated direction, heading within 90 degrees
+        of the vehicle's true heading.
+    true_wrong_way : bool
+        The vehicle really runs against its track's permitted direction.
+    est_wrong_way : bool
+        The estimate says it runs wrong way.
+    has_fix : bool
+        The report carried a position fix (``fix_quality`` not 0).
+    edge_id, direction : int or None
+    offset_m : float or None
+        The estimate (None when unmatched).
+    along_error_m, raw_along_error_m : float
+        Along-track error of the estimate and of the raw fix projected on the true edge,
+        m (NaN when not measurable).
+    """
+
+    vehicle_id: str
+    t: float
+    status: str
+    probability: float
+    matched: bool
+    right_track: bool
+    correct: bool
+    double_track: bool
+    after_switch: bool
+    moving: bool
+    right_way: bool
+    true_wrong_way: bool
+    est_wrong_way: bool
+    has_fix: bool
+    edge_id: int | None
+    direction: int | None
+    offset_m: float | None
+    along_error_m: float
+    raw_along_error_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class ReliabilityBin:
+    """Estimates with probability in ``(lo, hi]`` and how many were on the right track."""
+
+    lo: float
+    hi: float
+    fixes: int
+    right: int
+
+    @property
+    def share_right(self) -> float | None:
+        """Share on the right track (None for an empty bin)."""
+        return self.right / self.fixes if self.fixes else None
+
+
+@dataclass(frozen=True)
 class PositioningScore:
     """Accuracy of track-selective positioning against the simulator's truth.
 
@@ -26,33 +146,73 @@ class PositioningScore:
     fixes : int
         Reports evaluated (matched or not).
     double_track_fixes, double_track_correct : int
-        Fixes on double track (an opposite-direction track within 6 m) and those placed on
-        the right track and running direction (within ``tolerance_m`` along the route).
+        Fixes on double track and those placed on the right track and running direction
+        within ``tolerance_m`` along it.
+    double_track_right : int
+        Fixes on double track placed on the right track and running direction (within
+        ``track_tolerance_m`` along it).
     after_switch_fixes, after_switch_correct : int
-        Fixes 40-60 m past a facing switch and those on the right branch.
+        Fixes 40–60 m past a facing switch and those on the right branch.
     along_rmse_m, raw_along_rmse_m : float
-        Along-track RMS error of the filtered position and of the raw fix projected on the
-        true track, m.
+        Along-track RMS error of the filtered position and of the raw fix projected on
+        the true track, m.
     unmatched : int
         Fixes with no usable match.
+    confident_fixes, confident_wrong : int
+        Estimates with status ``confident``, and those of them on the wrong track.
+    moving_fixes, moving_right_way : int
+        Matched fixes of moving vehicles, and those on a track running the vehicle's way.
+    windows, disconnected_windows : int
+        10-s windows with two or more matched positions of a vehicle, and those in which
+        no permitted route connects two successive positions.
+    reliability : tuple of ReliabilityBin
+        Matched estimates by probability (:data:`RELIABILITY_EDGES`).
     """
 
     fixes: int = 0
     double_track_fixes: int = 0
     double_track_correct: int = 0
+    double_track_right: int = 0
     after_switch_fixes: int = 0
     after_switch_correct: int = 0
     along_rmse_m: float = math.nan
     raw_along_rmse_m: float = math.nan
     unmatched: int = 0
+    confident_fixes: int = 0
+    confident_wrong: int = 0
+    moving_fixes: int = 0
+    moving_right_way: int = 0
+    windows: int = 0
+    disconnected_windows: int = 0
+    reliability: tuple[ReliabilityBin, ...] = ()
 
     @property
     def double_track_accuracy(self) -> float:
         return self.double_track_correct / max(self.double_track_fixes, 1)
 
     @property
+    def double_track_right_share(self) -> float:
+        """Fixes on double track on the right track and direction, as a share."""
+        return self.double_track_right / max(self.double_track_fixes, 1)
+
+    @property
     def branch_accuracy(self) -> float:
         return self.after_switch_correct / max(self.after_switch_fixes, 1)
+
+    @property
+    def confident_wrong_share(self) -> float:
+        """Confident estimates on the wrong track per confident estimate."""
+        return self.confident_wrong / max(self.confident_fixes, 1)
+
+    @property
+    def right_way_share(self) -> float:
+        """Matched moving fixes on a track running the vehicle's way, as a share."""
+        return self.moving_right_way / max(self.moving_fixes, 1)
+
+    @property
+    def disconnected_share(self) -> float:
+        """Disconnected 10-s windows per window."""
+        return self.disconnected_windows / max(self.windows, 1)
 
     @property
     def rmse_reduction(self) -> float:
@@ -60,17 +220,68 @@ class PositioningScore:
         return 1.0 - self.along_rmse_m / self.raw_along_rmse_m
 
     def as_dict(self) -> dict[str, Any]:
+        """The scores as plain JSON-ready values."""
         return {
             "fixes": self.fixes,
             "double_track_accuracy": round(self.double_track_accuracy, 4),
+            "double_track_right_track": round(self.double_track_right_share, 4),
             "double_track_fixes": self.double_track_fixes,
             "branch_accuracy_50m_after_switch": round(self.branch_accuracy, 4),
             "after_switch_fixes": self.after_switch_fixes,
+            "confident_wrong_share": round(self.confident_wrong_share, 5),
+            "confident_fixes": self.confident_fixes,
+            "right_way_share_moving": round(self.right_way_share, 4),
+            "disconnected_10s_windows": self.disconnected_windows,
+            "windows": self.windows,
             "along_track_rmse_m": round(self.along_rmse_m, 3),
             "raw_along_track_rmse_m": round(self.raw_along_rmse_m, 3),
             "rmse_reduction": round(self.rmse_reduction, 3),
             "unmatched": self.unmatched,
+            "reliability": [
+                {
+                    "probability": [b.lo, b.hi],
+                    "fixes": b.fixes,
+                    "share_right": None if b.share_right is None else round(b.share_right, 4),
+                }
+                for b in self.reliability
+            ],
         }
+
+
+@dataclass(frozen=True)
+class WrongWayScore:
+    """What positioning makes of a vehicle really running against the permitted direction.
+
+    Attributes
+    ----------
+    vehicle_id : str
+    fixes : int
+        Reports while the vehicle really runs wrong way.
+    on_true_track : int
+        Of them, estimates on its true track in its true running direction.
+    flagged : int
+        Of them, estimates flagged ``wrong_way``.
+    flagged_on_true_track : int
+        Both.
+    first_detection_s : float or None
+        Time from the first wrong-way report to the first estimate both on the true track
+        and flagged, s (None: never).
+    statuses : dict of str to int
+        Statuses of the estimates.
+    """
+
+    vehicle_id: str
+    fixes: int
+    on_true_track: int
+    flagged: int
+    flagged_on_true_track: int
+    first_detection_s: float | None
+    statuses: dict[str, int]
+
+    @property
+    def detected_share(self) -> float:
+        """Share of the wrong-way reports placed on the true track and flagged."""
+        return self.flagged_on_true_track / max(self.fixes, 1)
 
 
 def _facing_switch_distances(net: TrackMap, route: Route) -> list[float]:
@@ -91,12 +302,208 @@ def _facing_switch_distances(net: TrackMap, route: Route) -> list[float]:
     return out
 
 
+def evaluate_fixes(
+    net: TrackMap,
+    result: SimulationResult,
+    *,
+    config: PositioningConfig | None = None,
+    tolerance_m: float = 8.0,
+    track_tolerance_m: float = 30.0,
+) -> list[FixEvaluation]:
+    """Run positioning over a simulation's reports and judge every estimate.
+
+    Reports are fed one analysis cycle (equal report time) at a time with
+    :meth:`~antikol.positioning.matcher.Positioner.update_many`.
+
+    Parameters
+    ----------
+    net : TrackMap
+    result : SimulationResult
+    config : PositioningConfig, optional
+    tolerance_m : float
+        Along-track tolerance of a ``correct`` estimate, m.
+    track_tolerance_m : float
+        Along-track tolerance of a ``right_track`` estimate, m (a right-track estimate
+        may still be off along the track).
+
+    Returns
+    -------
+    list of FixEvaluation
+        In report order (time, then vehicle).
+    """
+    specs = {s.vehicle_id: s for s in result.specs}
+    pos = Positioner(net, config)
+    switch_at = {v: _facing_switch_distances(net, specs[v].route) for v in specs}
+    reports = sorted(result.reports, key=lambda r: r.t)
+    rows: list[dict[str, Any]] = []
+    i = 0
+    while i < len(reports):
+        j = i
+        while j < len(reports) and reports[j].t == reports[i].t:
+            j += 1
+        batch = reports[i:j]
+        estimates = pos.update_many(batch)
+        for r, est in zip(batch, estimates, strict=True):
+            rows.append(
+                _judge(
+                    net,
+                    result,
+                    specs[r.vehicle_id],
+                    r,
+                    est,
+                    switch_at,
+                    tolerance_m,
+                    track_tolerance_m,
+                )
+            )
+        i = j
+    if not rows:
+        return []
+    xs = np.array([row.pop("true_x") for row in rows])
+    ys = np.array([row.pop("true_y") for row in rows])
+    double = on_double_track(net, xs, ys)
+    return [FixEvaluation(double_track=bool(double[k]), **row) for k, row in enumerate(rows)]
+
+
+def _judge(
+    net: TrackMap,
+    result: SimulationResult,
+    spec: Any,
+    r: Any,
+    est: TrackPosition,
+    switch_at: dict[str, list[float]],
+    tolerance_m: float,
+    track_tolerance_m: float,
+) -> dict[str, Any]:
+    truth = result.truth[r.vehicle_id]
+    idx = truth.index_at(r.t)
+    s_ant = max(float(truth.distance_m[idx]) - spec.antenna_m, 0.0)
+    te, to, td = spec.route.locate(min(s_ant, spec.route.length_m))
+    tx, ty = float(truth.antenna_x_m[idx]), float(truth.antenna_y_m[idx])
+    moving = float(truth.speed_mps[idx]) >= _MOVING_MPS
+    matched = est.matched and est.edge_id is not None and est.offset_m is not None
+    right_track = correct = right_way = False
+    along = raw = math.nan
+    has_fix = r.fix_quality != 0
+    if matched:
+        assert est.edge_id is not None and est.offset_m is not None and est.direction is not None
+        d = spec.route.distance_of(
+            est.edge_id, est.offset_m, after_m=max(s_ant - track_tolerance_m - 20.0, 0.0)
+        )
+        on_route = d is not None and spec.route.locate(d)[2] == est.direction
+        right_track = on_route and d is not None and abs(d - s_ant) <= track_tolerance_m
+        correct = right_track and d is not None and abs(d - s_ant) <= tolerance_m
+        edge = net.edges[est.edge_id]
+        heading = net.heading_at(est.edge_id, est.offset_m, est.direction)
+        turn = abs((heading - float(truth.heading_deg[idx]) + 180.0) % 360.0 - 180.0)
+        right_way = edge.allows(est.direction) and turn < 90.0
+        geom = net.edges[te].geometry
+        ex, ey = net.point_at(est.edge_id, est.offset_m)
+        p_est = shapely.Point(ex, ey)
+        if geom.distance(p_est) <= tolerance_m:
+            along = float(geom.project(p_est)) - to
+        if has_fix:
+            rx, ry = net.to_local(r.lon, r.lat)
+            raw = float(geom.project(shapely.Point(rx, ry))) - to
+    return {
+        "vehicle_id": r.vehicle_id,
+        "t": float(r.t),
+        "status": est.status,
+        "probability": float(est.probability),
+        "matched": matched,
+        "right_track": right_track,
+        "correct": correct,
+        "after_switch": any(40.0 <= s_ant - s0 <= 60.0 for s0 in switch_at[r.vehicle_id]),
+        "moving": moving,
+        "right_way": right_way,
+        "true_wrong_way": not net.edges[te].allows(td),
+        "est_wrong_way": bool(est.wrong_way),
+        "has_fix": has_fix,
+        "edge_id": est.edge_id if matched else None,
+        "direction": est.direction if matched else None,
+        "offset_m": est.offset_m if matched else None,
+        "along_error_m": along,
+        "raw_along_error_m": raw,
+        "true_x": tx,
+        "true_y": ty,
+    }
+
+
+def disconnected_windows(
+    net: TrackMap, evaluations: Sequence[FixEvaluation], *, window_s: float = _WINDOW_S
+) -> tuple[int, int]:
+    """Count the windows of matched positions and those no permitted route connects.
+
+    Parameters
+    ----------
+    net : TrackMap
+    evaluations : sequence of FixEvaluation
+    window_s : float
+        Window length, s (windows are aligned to multiples of it).
+
+    Returns
+    -------
+    (int, int)
+        Windows with two or more matched positions of a vehicle, and those in which two
+        successive positions are connected by no permitted route within
+        ``30 m + 25 m/s × Δt`` arriving in the later estimate's direction (nor is the later
+        one up to 10 m behind the earlier on its track). Positions flagged wrong way are
+        connected over physical moves.
+    """
+    per: dict[tuple[str, int], list[FixEvaluation]] = defaultdict(list)
+    for ev in evaluations:
+        if ev.matched:
+            per[(ev.vehicle_id, math.floor(ev.t / window_s))].append(ev)
+    windows = broken = 0
+    for seq in per.values():
+        if len(seq) < 2:
+            continue
+        windows += 1
+        seq.sort(key=lambda e: e.t)
+        for p, q in itertools.pairwise(seq):
+            if not _connected(net, p, q):
+                broken += 1
+                break
+    return windows, broken
+
+
+def _connected(net: TrackMap, p: FixEvaluation, q: FixEvaluation) -> bool:
+    assert p.edge_id is not None and p.offset_m is not None and p.direction is not None
+    assert q.edge_id is not None and q.offset_m is not None and q.direction is not None
+    permitted = not (p.est_wrong_way or q.est_wrong_way)
+    reach = _REACH_MARGIN_M + _MAX_SPEED_MPS * max(q.t - p.t, 0.0)
+    fwd = net.route_distance(
+        p.edge_id,
+        p.offset_m,
+        p.direction,
+        q.edge_id,
+        q.offset_m,
+        cutoff_m=reach,
+        respect_direction=permitted,
+    )
+    if fwd is not None and fwd.arrival_direction == q.direction:
+        return True
+    if q.direction != p.direction and q.edge_id == p.edge_id:
+        return False
+    back = net.route_distance(
+        q.edge_id,
+        q.offset_m,
+        q.direction,
+        p.edge_id,
+        p.offset_m,
+        cutoff_m=_STEP_BACK_M,
+        respect_direction=permitted,
+    )
+    return back is not None and back.arrival_direction == p.direction
+
+
 def positioning_accuracy(
     net: TrackMap,
     result: SimulationResult,
     *,
-    config: Any = None,
+    config: PositioningConfig | None = None,
     tolerance_m: float = 8.0,
+    track_tolerance_m: float = 30.0,
 ) -> PositioningScore:
     """Run the positioning filter over a simulation's reports and score it against truth.
 
@@ -106,87 +513,88 @@ def positioning_accuracy(
     result : SimulationResult
     config : PositioningConfig, optional
     tolerance_m : float
-        An estimate counts as on the right track when it lies on the true route within
-        this distance of the true antenna position, in the true running direction, m.
+        An estimate counts as correct when it lies on the true route within this distance
+        of the true antenna position, in the true running direction, m.
+    track_tolerance_m : float
+        The same tolerance for being on the right track (confident-and-wrong, reliability),
+        m.
+
+    Returns
+    -------
+    PositioningScore
     """
-    specs = {s.vehicle_id: s for s in result.specs}
-    pos = Positioner(net, config)
-    sc = PositioningScore()
-    errs: list[float] = []
-    raw: list[float] = []
-    rows: list[tuple[float, float, bool, bool]] = []  # true x, y, on-double?, after switch?
-    checks: list[bool] = []
-    by_time = sorted(result.reports, key=lambda r: r.t)
-    switch_at = {v: _facing_switch_distances(net, specs[v].route) for v in specs}
-    for r in by_time:
-        spec = specs[r.vehicle_id]
-        truth = result.truth[r.vehicle_id]
-        est = pos.update(r)
-        idx = truth.index_at(r.t)
-        s_ant = float(truth.distance_m[idx]) - spec.antenna_m
-        te, to, _ = spec.route.locate(max(s_ant, 0.0))
-        sc.fixes += 1
-        tx, ty = float(truth.antenna_x_m[idx]), float(truth.antenna_y_m[idx])
-        after = any(40.0 <= s_ant - s0 <= 60.0 for s0 in switch_at[r.vehicle_id])
-        if not est.matched or est.edge_id is None or est.offset_m is None:
-            sc.unmatched += 1
-            correct = False
-        else:
-            d = spec.route.distance_of(est.edge_id, est.offset_m, after_m=max(s_ant - 50.0, 0.0))
-            correct = (
-                d is not None
-                and abs(d - s_ant) <= tolerance_m
-                and spec.route.locate(d)[2] == est.direction
-            )
-            geom = net.edges[te].geometry
-            ex, ey = net.point_at(est.edge_id, est.offset_m)
-            p_est = shapely.Point(ex, ey)
-            if geom.distance(p_est) <= tolerance_m:
-                errs.append(float(geom.project(p_est)) - to)
-            rx, ry = net.to_local(r.lon, r.lat)
-            p_raw = shapely.Point(rx, ry)
-            raw.append(float(geom.project(p_raw)) - to)
-        rows.append((tx, ty, False, after))
-        checks.append(correct)
-    if rows:
-        xs = np.array([row[0] for row in rows])
-        ys = np.array([row[1] for row in rows])
-        double = _on_double_track(net, xs, ys)
-        for k, row in enumerate(rows):
-            if double[k]:
-                sc.double_track_fixes += 1
-                sc.double_track_correct += int(checks[k])
-            if row[3]:
-                sc.after_switch_fixes += 1
-                sc.after_switch_correct += int(checks[k])
-    if errs:
-        sc.along_rmse_m = float(np.sqrt(np.mean(np.square(errs))))
-        sc.raw_along_rmse_m = float(np.sqrt(np.mean(np.square(raw))))
-    return sc
+    evs = evaluate_fixes(
+        net, result, config=config, tolerance_m=tolerance_m, track_tolerance_m=track_tolerance_m
+    )
+    errs = [e.along_error_m for e in evs if not math.isnan(e.along_error_m)]
+    raw = [e.raw_along_error_m for e in evs if not math.isnan(e.raw_along_error_m)]
+    matched = [e for e in evs if e.matched]
+    probs = np.array([e.probability for e in matched])
+    right = np.array([e.right_track for e in matched], dtype=bool)
+    bins = []
+    for lo, hi in itertools.pairwise(RELIABILITY_EDGES):
+        sel = (probs > lo) & (probs <= hi) if lo > 0 else (probs >= lo) & (probs <= hi)
+        bins.append(ReliabilityBin(lo, hi, int(sel.sum()), int((sel & right).sum())))
+    windows, broken = disconnected_windows(net, evs)
+    confident = [e for e in evs if e.status == "confident" and e.matched]
+    moving = [e for e in matched if e.moving]
+    return PositioningScore(
+        fixes=len(evs),
+        double_track_fixes=sum(e.double_track for e in evs),
+        double_track_correct=sum(e.double_track and e.correct for e in evs),
+        double_track_right=sum(e.double_track and e.right_track for e in evs),
+        after_switch_fixes=sum(e.after_switch for e in evs),
+        after_switch_correct=sum(e.after_switch and e.correct for e in evs),
+        along_rmse_m=float(np.sqrt(np.mean(np.square(errs)))) if errs else math.nan,
+        raw_along_rmse_m=float(np.sqrt(np.mean(np.square(raw)))) if raw else math.nan,
+        unmatched=len(evs) - len(matched),
+        confident_fixes=len(confident),
+        confident_wrong=sum(not e.right_track for e in confident),
+        moving_fixes=len(moving),
+        moving_right_way=sum(e.right_way for e in moving),
+        windows=windows,
+        disconnected_windows=broken,
+        reliability=tuple(bins),
+    )
 
 
-def _on_double_track(net: TrackMap, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Whether each point lies on double track: two tracks 2.5-6 m apart, opposite ways."""
-    batch = net.candidates_batch_xy(x, y, 6.5)
-    out = np.zeros(len(x), dtype=bool)
-    per: dict[int, list[int]] = defaultdict(list)
-    for row in range(len(batch)):
-        per[int(batch.point[row])].append(row)
-    for k, rows_k in per.items():
-        if len(rows_k) < 2:
-            continue
-        nearest = min(rows_k, key=lambda r: batch.distance_m[r])
-        e0 = net.edges[int(batch.edge_id[nearest])]
-        if e0.direction == 0:
-            continue
-        h0 = (float(batch.heading_deg[nearest]) + (0.0 if e0.direction == 1 else 180.0)) % 360.0
-        for r in rows_k:
-            e = net.edges[int(batch.edge_id[r])]
-            if r == nearest or e.direction == 0:
-                continue
-            h = (float(batch.heading_deg[r]) + (0.0 if e.direction == 1 else 180.0)) % 360.0
-            sep = abs(float(batch.lateral_m[r]) - float(batch.lateral_m[nearest]))
-            if 2.5 <= sep <= 6.0 and abs((h - h0 + 180.0) % 360.0 - 180.0) > 150.0:
-                out[k] = True
-                break
-    return out
+def wrong_way_positioning(
+    net: TrackMap,
+    result: SimulationResult,
+    vehicle_id: str,
+    *,
+    config: PositioningConfig | None = None,
+) -> WrongWayScore:
+    """How positioning places a vehicle while it really runs against the permitted direction.
+
+    Parameters
+    ----------
+    net : TrackMap
+    result : SimulationResult
+        A run in which ``vehicle_id`` runs wrong way for a while (e.g. the scenario
+        ``wrong_way_single_line``, vehicle ``W``).
+    vehicle_id : str
+    config : PositioningConfig, optional
+
+    Returns
+    -------
+    WrongWayScore
+    """
+    evs = [
+        e
+        for e in evaluate_fixes(net, result, config=config)
+        if e.vehicle_id == vehicle_id and e.true_wrong_way
+    ]
+    statuses: dict[str, int] = defaultdict(int)
+    for e in evs:
+        statuses[e.status] += 1
+    hits = [e for e in evs if e.right_track and e.est_wrong_way]
+    return WrongWayScore(
+        vehicle_id=vehicle_id,
+        fixes=len(evs),
+        on_true_track=sum(e.right_track for e in evs),
+        flagged=sum(e.est_wrong_way for e in evs),
+        flagged_on_true_track=len(hits),
+        first_detection_s=hits[0].t - evs[0].t if hits else None,
+        statuses=dict(statuses),
+    )

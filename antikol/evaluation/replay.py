@@ -117,7 +117,7 @@ def replay(
     -------
     ReplaySummary
     """
-    summary = ReplaySummary(rejected_rows=len(log.problems), reports=len(log.reports))
+    summary = ReplaySummary(rejected_rows=log.rejected, reports=len(log.reports))
     lamp_prev: dict[str, bool] = {}
     seen: set[str] = set()
     batches: Iterable[tuple[float, list[VehicleReport]]] = cycles(log.reports, cycle_s)

@@ -20,6 +20,7 @@ diamond_crossing            two trams reach a diamond crossing on crossing lines
 leader_emergency            a leader brakes with the emergency brake in front of a follower
 depot_off_map               a tram moves in a depot that is not on the map, beside the line
 tunnel_dropout              a follower closes in on a leader while its GPS is out in a tunnel
+wrong_way_single_line       a tram runs the wrong way on double track towards an oncoming one
 city                        N trams on random routes for T minutes
 ==========================  ================================================================
 """
@@ -27,15 +28,35 @@ city                        N trams on random routes for T minutes
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
+from antikol.evaluation.scenario_places import (
+    CrossingLines,
+    ScenarioUnavailable,
+    State,
+    crossing_lines,
+    crossover_into,
+    curves,
+    double_track_pairs,
+    merge_switches,
+    min_radius,
+    route_through,
+    sharpest_curve,
+    single_tracks,
+    trim,
+    tunnels,
+    walk,
+)
 from antikol.sim import (
     GpsModel,
+    ReceiverModel,
     Route,
     ScriptEvent,
     SimulationResult,
@@ -44,6 +65,8 @@ from antikol.sim import (
     fleet,
 )
 from trackmap import TrackMap
+
+T = TypeVar("T")
 
 __all__ = [
     "SCENARIOS",
@@ -59,18 +82,16 @@ __all__ = [
     "leader_behind_curve",
     "leader_emergency",
     "merge_at_switch",
+    "needs_warning",
     "oncoming_double_track",
     "run_scenario",
     "sharpest_curve",
     "single_track_head_on",
     "tunnel_dropout",
+    "wrong_way_single_line",
 ]
 
 logger = logging.getLogger(__name__)
-
-
-class ScenarioUnavailable(ValueError):
-    """The map lacks what a scenario needs (the message says what)."""
 
 
 @dataclass(frozen=True)
@@ -83,7 +104,7 @@ class Scenario:
     net : TrackMap
         The map (for simulation and analysis).
     specs : tuple of TramSpec
-    gps : GpsModel
+    gps : GpsModel or UrbanGpsModel
     duration_s : float
     seed : int
     off_map : dict of str to (TrackMap, TramSpec)
@@ -96,7 +117,7 @@ class Scenario:
     description: str
     net: TrackMap
     specs: tuple[TramSpec, ...]
-    gps: GpsModel
+    gps: ReceiverModel
     duration_s: float
     seed: int = 0
     off_map: dict[str, tuple[TrackMap, TramSpec]] = field(default_factory=dict)
@@ -129,239 +150,35 @@ def run_scenario(scn: Scenario, *, progress: bool = False) -> SimulationResult:
     return result
 
 
-# -- finding places on a map --------------------------------------------------------------
-def _main_state(net: TrackMap, state: tuple[int, int]) -> bool:
-    e = net.edges[state[0]]
-    return e.service is None and e.allows(state[1])
+# -- scenario machinery --------------------------------------------------------------------
+#: Places a scenario tries before it gives up on a map.
+MAX_PLACES = 12
 
 
-def _walk(
-    net: TrackMap, state: tuple[int, int], length_m: float, *, forward: bool
-) -> list[tuple[int, int]]:
-    """Steps following (or, backwards, leading into) ``state``, not included, about
-    ``length_m`` long: main line first, then the straightest move."""
-    steps: list[tuple[int, int]] = []
-    total = 0.0
-    cur = state
-    seen = {state}
-    while total < length_m:
-        moves = net.traversal.successors(cur) if forward else net.traversal.predecessors(cur)
-        options = [m for m in moves if m not in seen]
-        if not options:
-            break
-        options.sort(
-            key=lambda m: (
-                not _main_state(net, m),
-                _turn(net, cur, m) if forward else _turn(net, m, cur),
-                m,
-            )
-        )
-        cur = options[0]
-        seen.add(cur)
-        if forward:
-            steps.append(cur)
-        else:
-            steps.insert(0, cur)
-        total += net.edge_length(cur[0])
-    return steps
-
-
-def _walk_back(net: TrackMap, state: tuple[int, int], length_m: float) -> list[tuple[int, int]]:
-    return _walk(net, state, length_m, forward=False)
-
-
-def _walk_ahead(net: TrackMap, state: tuple[int, int], length_m: float) -> list[tuple[int, int]]:
-    return _walk(net, state, length_m, forward=True)
-
-
-def _turn(net: TrackMap, a: tuple[int, int], b: tuple[int, int]) -> float:
-    la = net.edge_length(a[0])
-    h_in = net.heading_at(a[0], la if a[1] == 1 else 0.0, a[1])
-    h_out = net.heading_at(b[0], 0.0 if b[1] == 1 else net.edge_length(b[0]), b[1])
-    return abs((h_out - h_in + 180.0) % 360.0 - 180.0)
-
-
-def _route_through(
-    net: TrackMap, state: tuple[int, int], at_m: float, before_m: float, after_m: float
-) -> tuple[Route, float]:
-    """A route passing ``at_m`` along edge ``state`` with ``before_m`` before and ``after_m``
-    after it; returns the route and the route distance of that point."""
-    e, d = state
-    length = net.edge_length(e)
-    into = at_m if d == 1 else length - at_m
-    back = _walk_back(net, state, max(before_m - into, 0.0))
-    ahead = _walk_ahead(net, state, max(after_m - (length - into), 0.0))
-    steps = [*back, state, *ahead]
-    route = Route.from_steps(net, steps)
-    where = route.distance_of(e, at_m)
-    assert where is not None
-    start = max(where - before_m, 0.0)
-    trimmed = _trim(net, route, start, min(where + after_m, route.length_m))
-    return trimmed, where - start
-
-
-def _trim(net: TrackMap, route: Route, start_m: float, end_m: float) -> Route:
-    e0, o0, _ = route.locate(start_m)
-    e1, o1, _ = route.locate(end_m)
-    k0 = next(k for k, (e, _) in enumerate(route.steps) if e == e0)
-    k1 = max(k for k, (e, _) in enumerate(route.steps) if e == e1)
-    return Route.from_steps(net, route.steps[k0 : k1 + 1], start_offset_m=o0, end_offset_m=o1)
-
-
-def _min_radius(net: TrackMap, edge_id: int) -> tuple[float, float, float]:
-    """(smallest radius m, where along the edge m, total turning deg) of an edge."""
-    g = net.edges[edge_id].geometry
-    length = g.length
-    if length < 12.0:
-        return math.inf, 0.0, 0.0
-    s = np.arange(0.0, length, 2.0)
-    headings = np.array([_heading(g, x) for x in s])
-    turn = np.abs(np.angle(np.exp(1j * np.diff(headings))))  # radians per 2 m
-    window = 5  # 10 m chords
-    best = (math.inf, 0.0)
-    for k in range(len(turn) - window):
-        ang = float(turn[k : k + window].sum())
-        if ang > math.radians(10.0):
-            r = 2.0 * window / ang
-            if r < best[0]:
-                best = (r, float(s[k + window // 2]))
-    return best[0], best[1], math.degrees(float(turn.sum()))
-
-
-def _heading(g: object, s: float) -> float:
-    a = g.interpolate(max(s - 1.0, 0.0))  # type: ignore[attr-defined]
-    b = g.interpolate(min(s + 1.0, g.length))  # type: ignore[attr-defined]
-    return math.atan2(b.x - a.x, b.y - a.y)
-
-
-def sharpest_curve(
-    net: TrackMap, *, min_radius_m: float = 10.0
-) -> tuple[tuple[int, int], float, float]:
-    """The main-line state with the sharpest curve: ((edge, direction), offset m, radius m)."""
-    best: tuple[float, int, float] | None = None
-    for e in net.edges:
-        if e.service is not None or e.direction == 0 or _in_short_loop(net, e.edge_id):
-            continue
-        r, at, total = _min_radius(net, e.edge_id)
-        if min_radius_m <= r and total >= 25.0 and (best is None or r < best[0]):
-            best = (r, e.edge_id, at)
-    if best is None:
-        raise ScenarioUnavailable("the map has no main-line curve turning 25 degrees or more")
-    radius, edge_id, where = best
-    return (edge_id, net.edges[edge_id].direction), where, radius
-
-
-def _in_short_loop(net: TrackMap, edge_id: int, within_m: float = 600.0) -> bool:
-    """Whether the track ahead of an edge comes back to it within ``within_m`` (a turning
-    loop, where "ahead" and "behind" meet)."""
-    e = net.edges[edge_id]
-    paths = net.paths_ahead(
-        edge_id, 0.0 if e.direction >= 0 else e.length_m, e.direction or 1, within_m, max_paths=16
-    )
-    return any(edge_id in p.edges[1:] for p in paths)
-
-
-def _double_track_pair(net: TrackMap) -> tuple[tuple[int, int], float, tuple[int, int], float]:
-    best = None
-    for e in sorted(net.edges, key=lambda x: -x.length_m):
-        if e.service is not None or e.direction == 0 or e.length_m < 300.0:
-            continue
-        mid = e.length_m / 2.0
-        x, y = net.point_at(e.edge_id, mid)
-        h = net.heading_at(e.edge_id, mid, e.direction)
-        for c in net.candidates_xy(x, y, 6.0):
-            other = net.edges[c.edge_id]
-            if c.edge_id == e.edge_id or other.direction == 0 or other.service is not None:
-                continue
-            oh = net.heading_at(c.edge_id, c.offset_m, other.direction)
-            if abs((oh - h + 180.0) % 360.0 - 180.0) > 160.0 and 2.5 < abs(c.lateral_m) < 6.0:
-                best = ((e.edge_id, e.direction), mid, (c.edge_id, other.direction), c.offset_m)
-                break
-        if best:
-            return best
-    raise ScenarioUnavailable("the map has no double-track pair of at least 300 m")
-
-
-def _single_track(net: TrackMap) -> tuple[int, float]:
-    best = None
-    for e in net.edges:
-        usable = e.direction == 0 and e.service is None and e.length_m >= 300.0 and not e.tunnel
-        if usable and (best is None or e.length_m > net.edges[best].length_m):
-            best = e.edge_id
-    if best is None:
-        raise ScenarioUnavailable(
-            "the map has no main-line single-track (two-way) section of 300 m or more"
-        )
-    return best, net.edges[best].length_m
-
-
-def _merge_switch(net: TrackMap) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int]]:
-    """A merging switch entered from both branches: (branch A state, branch B state, trunk)."""
-    for c in sorted(net.conflicts, key=lambda c: c.conflict_id):
-        if c.kind != "merge" or c.node_id is None:
-            continue
-        node = net.nodes[c.node_id]
-        trunk, a, b = c.edges
-        ends = dict(node.ends)
-        states = []
-        for e in (a, b):
-            d = 1 if ends[e] == 1 else -1  # arriving at the node
-            states.append((e, d))
-        t_state = (trunk, 1 if ends[trunk] == 0 else -1)
-        if all(
-            net.traversal.has_edge(s, t_state) and _main_state(net, s) for s in states
-        ) and _main_state(net, t_state):
-            return states[0], states[1], t_state
-    raise ScenarioUnavailable("the map has no merging switch enterable from both branches")
-
-
-def _diamond(net: TrackMap) -> tuple[tuple[int, int], tuple[int, int]]:
-    for c in net.conflicts:
-        if c.kind != "diamond_crossing" or c.node_id is None:
-            continue
-        node = net.nodes[c.node_id]
-        lines = []
-        for i, j in node.allowed:
-            (ea, enda), (eb, endb) = node.ends[i], node.ends[j]
-            for (e1, x1), (e2, x2) in (((ea, enda), (eb, endb)), ((eb, endb), (ea, enda))):
-                s_in = (e1, 1 if x1 == 1 else -1)
-                s_out = (e2, 1 if x2 == 0 else -1)
-                if net.traversal.has_edge(s_in, s_out) and _main_state(net, s_in):
-                    lines.append(s_in)
-                    break
-        if len(lines) == 2:
-            return lines[0], lines[1]
-    raise ScenarioUnavailable("the map has no diamond crossing usable on both lines")
-
-
-def _tunnel(net: TrackMap) -> tuple[int, int]:
-    for e in sorted(net.edges, key=lambda x: -x.length_m):
-        if e.tunnel and e.direction != 0 and e.service is None:
-            return e.edge_id, e.direction
-    raise ScenarioUnavailable("the map has no main-line tunnel")
-
-
-# -- scenario builders --------------------------------------------------------------------
 def _scenario(
     builder: Callable[..., Scenario],
     net: TrackMap,
     specs: tuple[TramSpec, ...],
-    gps: GpsModel,
+    gps: ReceiverModel,
     duration_s: float,
     seed: int,
     *,
     off_map: dict[str, tuple[TrackMap, TramSpec]] | None = None,
+    note: str = "",
+    focus: tuple[str, ...] = (),
 ) -> Scenario:
     """A scenario named and described by the function that builds it."""
+    doc = builder.__doc__ or ""
     return Scenario(
         builder.__name__,
-        builder.__doc__ or "",
+        f"{doc} {note}".strip() if note else doc,
         net,
         specs,
         gps,
         duration_s,
         seed,
         off_map=off_map or {},
+        focus=focus,
     )
 
 
@@ -371,137 +188,309 @@ def _spec(vid: str, route: Route, **kw: object) -> TramSpec:
 
 
 def _sub(net: TrackMap, route: Route, start_m: float) -> Route:
-    return _trim(net, route, start_m, route.length_m)
+    if start_m > route.length_m - 1.0:
+        raise ScenarioUnavailable(
+            f"the route is {route.length_m:.0f} m long, too short to start a tram "
+            f"{start_m:.0f} m along it"
+        )
+    return trim(net, route, start_m, route.length_m)
+
+
+def _first_place(what: str, places: Iterable[T], build: Callable[[T], Scenario]) -> Scenario:
+    """The scenario at the first of ``places`` that has room for it."""
+    reasons: list[str] = []
+    for place in itertools.islice(places, MAX_PLACES):
+        try:
+            return build(place)
+        except ScenarioUnavailable as exc:
+            reasons.append(str(exc))
+    if not reasons:
+        raise ScenarioUnavailable(f"the map has no {what}")
+    raise ScenarioUnavailable(
+        f"no {what} of the map has room for the scenario ({len(reasons)} tried; e.g. {reasons[0]})"
+    )
+
+
+def _required_times(scn: Scenario, vehicle_id: str) -> np.ndarray:
+    """Times (s) at which ``vehicle_id`` needs a warning when the scenario runs with exact
+    GPS (its ground truth from true states)."""
+    from antikol.evaluation.groundtruth import REQUIRED, ground_truth
+
+    result = Simulator(scn.net, list(scn.specs), gps=GpsModel.exact(), seed=scn.seed).run(
+        scn.duration_s
+    )
+    truth = ground_truth(scn.net, result, off_map=scn.off_map.keys())
+    need = np.zeros(len(truth.times_s), dtype=bool)
+    for (own, _), st in truth.state.items():
+        if own == vehicle_id:
+            need |= st == REQUIRED
+    return truth.times_s[need]
+
+
+def needs_warning(scn: Scenario, vehicle_id: str, *, min_cycles: int = 3) -> bool:
+    """Whether ``vehicle_id`` needs a warning for ``min_cycles`` or more cycles when the
+    scenario runs with exact GPS (its ground truth from true states)."""
+    return len(_required_times(scn, vehicle_id)) >= min_cycles
+
+
+def _with_look_up(scn: Scenario, follower: str, until_s: float | None) -> Scenario:
+    """The scenario with the follower's inattention ending at ``until_s``."""
+    k = next(i for i, sp in enumerate(scn.specs) if sp.vehicle_id == follower)
+    spec = scn.specs[k]
+    script = tuple(
+        ScriptEvent.inattentive(e.t_s, until_s) if e.kind == "inattentive" else e
+        for e in spec.script
+    )
+    specs = list(scn.specs)
+    specs[k] = dataclasses.replace(spec, script=script)
+    return dataclasses.replace(scn, specs=tuple(specs))
+
+
+def _calibrated(scn: Scenario, follower: str, *, late_s: float = 2.0) -> Scenario:
+    """The scenario, with the follower's driver looking up later if need be.
+
+    On another map the same script may let the driver look up long before the gap falls
+    below the braking distance (a slow curve, a longer approach). Then the run is repeated
+    with a driver who never looks up, and the look-up is set ``late_s`` after the first
+    second that needs a warning there (checked once more; later still if need be).
+
+    Raises
+    ------
+    ScenarioUnavailable
+        Even a driver who never looks up does not need a warning in the run.
+    """
+    if needs_warning(scn, follower):
+        return scn
+    blind = _required_times(_with_look_up(scn, follower, None), follower)
+    if not len(blind):
+        raise ScenarioUnavailable(
+            f"{scn.name}: the follower never comes within braking distance of the leader "
+            "on this map, even when its driver never looks up"
+        )
+    until = float(blind[0]) + late_s
+    while until < scn.duration_s:
+        trial = _with_look_up(scn, follower, until)
+        if needs_warning(trial, follower):
+            return trial
+        until += 3.0
+    return _with_look_up(scn, follower, None)
+
+
+# -- scenario builders --------------------------------------------------------------------
+def _straight_states(net: TrackMap) -> list[State]:
+    found = []
+    for e in sorted(net.edges, key=lambda x: -x.length_m)[:40]:
+        if e.service is not None or e.direction == 0:
+            continue
+        _, _, total = min_radius(net, e.edge_id)
+        if total < 20.0:
+            found.append((e.edge_id, e.direction))
+    return found
 
 
 def following_straight(net: TrackMap, *, seed: int = 0, gap_m: float = 150.0) -> Scenario:
     """A fast tram closes in on a slower one on the straightest stretch found."""
-    best = None
-    for e in sorted(net.edges, key=lambda x: -x.length_m)[:40]:
-        if e.service is not None or e.direction == 0:
-            continue
-        _, _, total = _min_radius(net, e.edge_id)
-        if total < 20.0 and (best is None or e.length_m > best.length_m):
-            best = e
-    if best is None:
-        raise ScenarioUnavailable("the map has no long straight main-line edge")
-    state = (best.edge_id, best.direction)
-    route, _ = _route_through(net, state, best.length_m / 2.0, 300.0, 600.0)
-    leader = _spec("L", _sub(net, route, gap_m), script=(ScriptEvent.speed_cap(0.0, 4.0),))
-    follower = _spec("F", route, script=(ScriptEvent.inattentive(0.0, 35.0),))
-    return _scenario(
-        following_straight,
-        net,
-        (leader, follower),
-        default_gps(),
-        90.0,
-        seed,
-    )
+
+    def build(state: State) -> Scenario:
+        length = net.edge_length(state[0])
+        route, _ = route_through(
+            net, state, length / 2.0, 300.0, 600.0, need_before_m=0.0, need_after_m=0.0
+        )
+        if route.length_m < gap_m + 250.0:
+            raise ScenarioUnavailable(
+                f"only {route.length_m:.0f} m of track around edge {state[0]} "
+                f"(needs {gap_m + 250.0:.0f} m)"
+            )
+        leader = _spec("L", _sub(net, route, gap_m), script=(ScriptEvent.speed_cap(0.0, 4.0),))
+        follower = _spec("F", route, script=(ScriptEvent.inattentive(0.0, 35.0),))
+        return _scenario(following_straight, net, (leader, follower), default_gps(), 90.0, seed)
+
+    return _first_place("long straight main-line edge", _straight_states(net), build)
 
 
 def following_curve(net: TrackMap, *, seed: int = 0, gap_m: float = 120.0) -> Scenario:
     """A fast tram closes in on a slower one through the sharpest curve of the map."""
-    state, at, _r = sharpest_curve(net)
-    route, where = _route_through(net, state, at, 250.0, 300.0)
-    leader = _spec("L", _sub(net, route, where - 60.0), script=(ScriptEvent.speed_cap(0.0, 3.0),))
-    follower = _spec(
-        "F",
-        _sub(net, route, max(where - 60.0 - gap_m, 0.0)),
-        script=(ScriptEvent.inattentive(0.0, 12.0),),
-    )
-    return _scenario(
-        following_curve,
-        net,
-        (leader, follower),
-        default_gps(),
-        90.0,
-        seed,
-    )
+
+    def build(curve: tuple[State, float, float]) -> Scenario:
+        state, at, _r = curve
+        route, where = route_through(
+            net, state, at, 250.0, 300.0, need_before_m=60.0 + 0.5 * gap_m, need_after_m=120.0
+        )
+        leader = _spec(
+            "L", _sub(net, route, where - 60.0), script=(ScriptEvent.speed_cap(0.0, 3.0),)
+        )
+        follower = _spec(
+            "F",
+            _sub(net, route, max(where - 60.0 - gap_m, 0.0)),
+            script=(ScriptEvent.inattentive(0.0, 12.0),),
+        )
+        scn = _scenario(following_curve, net, (leader, follower), default_gps(), 90.0, seed)
+        return _calibrated(scn, "F")
+
+    return _first_place("main-line curve turning 25 degrees or more", curves(net), build)
 
 
 def leader_behind_curve(net: TrackMap, *, seed: int = 0) -> Scenario:
     """A tram stands just past the sharpest curve; another approaches from 250 m back."""
-    state, at, _r = sharpest_curve(net)
-    route, where = _route_through(net, state, at, 280.0, 200.0)
-    leader = _spec("L", _sub(net, route, where + 25.0), script=(ScriptEvent.hold(0.0, None),))
-    # the driver looks away for the first 20 s and only then brakes for the standing tram
-    follower = _spec("F", route, script=(ScriptEvent.inattentive(0.0, 20.0),))
-    return _scenario(
-        leader_behind_curve,
-        net,
-        (leader, follower),
-        default_gps(),
-        80.0,
-        seed,
-    )
+
+    def build(curve: tuple[State, float, float]) -> Scenario:
+        state, at, _r = curve
+        route, where = route_through(
+            net, state, at, 280.0, 200.0, need_before_m=150.0, need_after_m=60.0
+        )
+        leader = _spec("L", _sub(net, route, where + 25.0), script=(ScriptEvent.hold(0.0, None),))
+        # the driver looks away for the first 20 s and only then brakes for the standing tram
+        follower = _spec("F", route, script=(ScriptEvent.inattentive(0.0, 20.0),))
+        scn = _scenario(leader_behind_curve, net, (leader, follower), default_gps(), 80.0, seed)
+        return _calibrated(scn, "F")
+
+    return _first_place("main-line curve turning 25 degrees or more", curves(net), build)
 
 
 def oncoming_double_track(net: TrackMap, *, seed: int = 0) -> Scenario:
     """Two trams pass each other on the two tracks of a double-track line."""
-    a_state, a_at, b_state, b_at = _double_track_pair(net)
-    ra, _ = _route_through(net, a_state, a_at, 320.0, 320.0)
-    rb, _ = _route_through(net, b_state, b_at, 320.0, 320.0)
-    a = _spec("A", ra, initial_speed_mps=8.0, script=(ScriptEvent.speed_cap(0.0, 8.0),))
-    b = _spec("B", rb, initial_speed_mps=8.0, script=(ScriptEvent.speed_cap(0.0, 8.0),))
-    return _scenario(
-        oncoming_double_track,
-        net,
-        (a, b),
-        default_gps(),
-        70.0,
-        seed,
-    )
+
+    def build(pair: tuple[State, float, State, float]) -> Scenario:
+        a_state, a_at, b_state, b_at = pair
+        ra, wa = route_through(net, a_state, a_at, 320.0, 320.0, need_before_m=150.0)
+        rb, wb = route_through(net, b_state, b_at, 320.0, 320.0, need_before_m=150.0)
+        approach = min(wa, wb)
+        ra, rb = _sub(net, ra, wa - approach), _sub(net, rb, wb - approach)
+        a = _spec("A", ra, initial_speed_mps=8.0, script=(ScriptEvent.speed_cap(0.0, 8.0),))
+        b = _spec("B", rb, initial_speed_mps=8.0, script=(ScriptEvent.speed_cap(0.0, 8.0),))
+        return _scenario(oncoming_double_track, net, (a, b), default_gps(), 70.0, seed)
+
+    return _first_place("double-track pair of at least 300 m", double_track_pairs(net), build)
 
 
 def single_track_head_on(net: TrackMap, *, seed: int = 0) -> Scenario:
     """Two trams enter a single-track section from its two ends."""
-    e, length = _single_track(net)
-    ra, _ = _route_through(net, (e, 1), 0.0, 150.0, length)
-    rb, _ = _route_through(net, (e, -1), length, 150.0, length)
-    a = _spec("A", ra)
-    b = _spec("B", rb)
-    return _scenario(
-        single_track_head_on,
-        net,
-        (a, b),
-        default_gps(),
-        100.0,
-        seed,
+
+    def build(place: tuple[int, float]) -> Scenario:
+        e, length = place
+        ra, _ = route_through(net, (e, 1), 0.0, 150.0, length, need_before_m=0.0)
+        rb, _ = route_through(net, (e, -1), length, 150.0, length, need_before_m=0.0)
+        return _scenario(
+            single_track_head_on, net, (_spec("A", ra), _spec("B", rb)), default_gps(), 100.0, seed
+        )
+
+    return _first_place(
+        "main-line single-track (two-way) section of 300 m or more", single_tracks(net), build
     )
+
+
+def _equal_approaches(
+    net: TrackMap, routes: list[tuple[Route, float]], *, min_m: float = 100.0
+) -> list[Route]:
+    """The routes trimmed to the same distance before their common point, on separate
+    tracks (an approach starts past the last track the two approaches share).
+
+    Raises
+    ------
+    ScenarioUnavailable
+        Less than ``min_m`` of separate approach.
+    """
+    (ra, wa), (rb, wb) = routes
+    shared = set(ra.edge_ids[: _step_at(ra, wa) + 1]) & set(rb.edge_ids[: _step_at(rb, wb) + 1])
+    starts = []
+    for r, where in routes:
+        after = [
+            float(r.entry_m[k] + r.edge_lengths_m[k])
+            for k, (e, _) in enumerate(r.steps)
+            if e in shared and r.entry_m[k] < where
+        ]
+        starts.append(max([0.0, *after]))
+    approach = min(wa - starts[0], wb - starts[1])
+    if approach < min_m:
+        raise ScenarioUnavailable(
+            f"the two approaches run on separate tracks for only {approach:.0f} m "
+            f"(needs {min_m:.0f} m)"
+        )
+    return [_sub(net, r, where - approach) for r, where in routes]
+
+
+def _synchronised(scn: Scenario, at_m: float) -> Scenario:
+    """The scenario with the earlier of its two trams departing later, so that both
+    fronts reach route distance ``at_m`` (their common point) together; checked with exact
+    GPS.
+
+    Raises
+    ------
+    ScenarioUnavailable
+        Even so neither tram needs a warning (the place does not make a conflict).
+    """
+    alone = Simulator(
+        scn.net, list(scn.specs), gps=GpsModel.exact(), seed=scn.seed, yield_at_conflicts=False
+    ).run(scn.duration_s)
+    arrive = []
+    for spec in scn.specs:
+        tr = alone.truth[spec.vehicle_id]
+        k = int(np.searchsorted(tr.distance_m, at_m))
+        arrive.append(float(tr.t_s[k]) if k < len(tr.t_s) else math.inf)
+    if not all(math.isfinite(t) for t in arrive):
+        raise ScenarioUnavailable(f"{scn.name}: a tram does not reach the conflict point in time")
+    first = int(np.argmin(arrive))
+    delay = round(max(arrive) - min(arrive))
+    specs = list(scn.specs)
+    if delay > 0:
+        specs[first] = dataclasses.replace(specs[first], depart_s=float(delay))
+    out = dataclasses.replace(scn, specs=tuple(specs), duration_s=scn.duration_s + delay)
+    if not any(needs_warning(out, sp.vehicle_id, min_cycles=1) for sp in out.specs):
+        raise ScenarioUnavailable(f"{scn.name}: the two trams never need a warning here")
+    return out
+
+
+def _step_at(route: Route, distance_m: float) -> int:
+    k = int(np.searchsorted(route.entry_m, distance_m, side="left") - 1)
+    return min(max(k, 0), len(route.steps) - 1)
 
 
 def merge_at_switch(net: TrackMap, *, seed: int = 0, approach_m: float = 250.0) -> Scenario:
     """Two trams reach a merging switch from its two branches at the same time."""
-    sa, sb, trunk = _merge_switch(net)
-    routes = []
-    for s in (sa, sb):
-        la = net.edge_length(s[0])
-        route, _ = _route_through(net, s, la if s[1] == 1 else 0.0, approach_m, 0.0)
-        steps = [*route.steps, trunk, *_walk_ahead(net, trunk, 150.0)]
-        routes.append(Route.from_steps(net, steps, start_offset_m=route.start_offset_m))
-    a = _spec("A", routes[0], initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
-    b = _spec("B", routes[1], initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
-    return _scenario(merge_at_switch, net, (a, b), default_gps(), 80.0, seed)
+
+    def build(place: tuple[State, State, State]) -> Scenario:
+        sa, sb, trunk = place
+        approaches = []
+        for s in (sa, sb):
+            la = net.edge_length(s[0])
+            approaches.append(
+                route_through(
+                    net, s, la if s[1] == 1 else 0.0, approach_m, 0.0, need_before_m=120.0
+                )
+            )
+        ahead = walk(net, trunk, 150.0, forward=True)
+        routes = [
+            Route.from_steps(net, [*r.steps, trunk, *ahead], start_offset_m=r.start_offset_m)
+            for r in _equal_approaches(net, approaches)
+        ]
+        a = _spec("A", routes[0], initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
+        b = _spec("B", routes[1], initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
+        scn = _scenario(merge_at_switch, net, (a, b), default_gps(), 80.0, seed)
+        return _synchronised(scn, routes[0].entry_m[len(routes[0].steps) - len(ahead) - 1])
+
+    return _first_place("merging switch enterable from both branches", merge_switches(net), build)
 
 
 def diamond_crossing(net: TrackMap, *, seed: int = 0, approach_m: float = 250.0) -> Scenario:
-    """Two trams reach a diamond crossing on the crossing lines at the same time."""
-    sa, sb = _diamond(net)
-    specs = []
-    for vid, s in (("A", sa), ("B", sb)):
-        la = net.edge_length(s[0])
-        route, _ = _route_through(net, s, la if s[1] == 1 else 0.0, approach_m, 150.0)
-        specs.append(
-            _spec(vid, route, initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
+    """Two trams reach an at-grade crossing (a diamond, or lines crossing without a shared
+    node) on the crossing lines at the same time."""
+
+    def build(place: CrossingLines) -> Scenario:
+        approaches = [
+            route_through(net, s, at, approach_m, 150.0, need_before_m=120.0, need_after_m=60.0)
+            for s, at in ((place.a, place.a_at_m), (place.b, place.b_at_m))
+        ]
+        routes = _equal_approaches(net, approaches)
+        specs = tuple(
+            _spec(vid, r, initial_speed_mps=7.0, script=(ScriptEvent.speed_cap(0.0, 7.0),))
+            for vid, r in zip(("A", "B"), routes, strict=True)
         )
-    return _scenario(
-        diamond_crossing,
-        net,
-        tuple(specs),
-        default_gps(),
-        70.0,
-        seed,
-    )
+        note = "(an unnoded crossing)" if place.kind == "crossing" else ""
+        scn = _scenario(diamond_crossing, net, specs, default_gps(), 70.0, seed, note=note)
+        point = routes[0].distance_of(place.a[0], place.a_at_m)
+        return _synchronised(scn, routes[0].length_m - 150.0 if point is None else point)
+
+    return _first_place("at-grade crossing usable on both lines", crossing_lines(net), build)
 
 
 def leader_emergency(net: TrackMap, *, seed: int = 0) -> Scenario:
@@ -553,23 +542,92 @@ def depot_off_map(net: TrackMap, *, seed: int = 0, offset_m: float = 45.0) -> Sc
 def tunnel_dropout(net: TrackMap, *, seed: int = 0) -> Scenario:
     """Two trams run through a tunnel without GPS; past the exit the follower, whose driver
     looked away in the tunnel, closes in on the leader standing 150 m beyond the portal."""
-    state = _tunnel(net)
-    length = net.edge_length(state[0])
-    exit_offset = length if state[1] == 1 else 0.0
-    route, exit_at = _route_through(net, state, exit_offset, length + 250.0, 400.0)
-    entry = max(exit_at - length, 0.0)
-    leader = _spec("L", _sub(net, route, exit_at + 150.0), script=(ScriptEvent.hold(0.0, None),))
-    start = max(entry - 200.0, 0.0)
-    looks_up = (exit_at - start + 20.0) / 12.0  # the driver looks up just past the portal
-    follower = _spec("F", _sub(net, route, start), script=(ScriptEvent.inattentive(0.0, looks_up),))
-    return _scenario(
-        tunnel_dropout,
-        net,
-        (leader, follower),
-        default_gps(),
-        looks_up + 60.0,
-        seed,
-    )
+
+    def build(state: State) -> Scenario:
+        length = net.edge_length(state[0])
+        exit_offset = length if state[1] == 1 else 0.0
+        route, exit_at = route_through(
+            net,
+            state,
+            exit_offset,
+            length + 250.0,
+            400.0,
+            need_before_m=length + 60.0,
+            need_after_m=200.0,
+        )
+        entry = max(exit_at - length, 0.0)
+        leader = _spec(
+            "L", _sub(net, route, exit_at + 150.0), script=(ScriptEvent.hold(0.0, None),)
+        )
+        start = max(entry - 200.0, 0.0)
+        looks_up = (exit_at - start + 20.0) / 12.0  # the driver looks up just past the portal
+        follower = _spec(
+            "F", _sub(net, route, start), script=(ScriptEvent.inattentive(0.0, looks_up),)
+        )
+        scn = _scenario(
+            tunnel_dropout, net, (leader, follower), default_gps(), looks_up + 60.0, seed
+        )
+        return _calibrated(scn, "F")
+
+    return _first_place("main-line tunnel", tunnels(net), build)
+
+
+def wrong_way_single_line(
+    net: TrackMap, *, seed: int = 0, gps: ReceiverModel | None = None
+) -> Scenario:
+    """A tram runs the wrong way on one track of a double track (single-line working after
+    a crossover) towards a tram running the right way on it: a head-on conflict on what
+    looks like an ordinary double track."""
+
+    def build(place: tuple[tuple[State, float, State, float], list[State] | None]) -> Scenario:
+        (_a_state, _a_at, b_state, b_at), chain = place
+        wrong = (b_state[0], -b_state[1])
+        if chain is not None:
+            # over the crossover onto the wrong track; the trams meet 150 m past it
+            back = walk(net, chain[0], 250.0, forward=False)
+            ahead = walk(net, wrong, 400.0, forward=True, physical=True)
+            full = Route.from_steps(net, [*back, *chain, *ahead], wrong_way=True)
+            k_in = len(back) + next(
+                k for k, st in enumerate(chain) if not net.edges[st[0]].allows(st[1])
+            )
+            meet = float(full.entry_m[k_in]) + 150.0
+            if meet > full.length_m - 50.0:
+                raise ScenarioUnavailable("the wrong-way track past the crossover is too short")
+            e, off, d = full.locate(meet)
+            if net.edges[e].allows(d):
+                raise ScenarioUnavailable("the track 150 m past the crossover is not wrong way")
+            rw, where_w = trim(net, full, 0.0, min(meet + 250.0, full.length_m)), meet
+            o_state, o_at = (e, -d), off
+            note = "(it enters over a crossover)"
+        else:
+            rw, where_w = route_through(
+                net, wrong, b_at, 300.0, 250.0, need_before_m=150.0, physical=True
+            )
+            o_state, o_at = b_state, b_at
+            note = "(it starts on the wrong track: no crossover leads there)"
+        ro, where_o = route_through(net, o_state, o_at, 400.0, 250.0, need_before_m=150.0)
+        approach = min(where_w, where_o, 400.0)
+        rw, ro = _sub(net, rw, where_w - approach), _sub(net, ro, where_o - approach)
+        cap = (ScriptEvent.speed_cap(0.0, 6.0),)
+        w = _spec("W", rw, initial_speed_mps=6.0, script=cap)
+        o = _spec("O", ro, initial_speed_mps=6.0, script=cap)
+        return _scenario(
+            wrong_way_single_line,
+            net,
+            (w, o),
+            gps or default_gps(),
+            approach / 6.0 + 25.0,
+            seed,
+            note=note,
+            focus=("W", "O"),
+        )
+
+    pairs = double_track_pairs(net)
+    chains = [crossover_into(net, (p[2][0], -p[2][1]), within_m=1500.0) for p in pairs[:60]]
+    Place = tuple[tuple[State, float, State, float], list[State] | None]
+    places: list[Place] = [(p, c) for p, c in zip(pairs, chains, strict=False) if c is not None]
+    places += [(p, None) for p in pairs]  # no crossover: start on the wrong track
+    return _first_place("double-track pair of at least 300 m", places, build)
 
 
 def city(net: TrackMap, *, seed: int = 0, trams: int = 20, minutes: float = 30.0) -> Scenario:
@@ -597,6 +655,7 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "leader_emergency": leader_emergency,
     "depot_off_map": depot_off_map,
     "tunnel_dropout": tunnel_dropout,
+    "wrong_way_single_line": wrong_way_single_line,
     "city": city,
 }
 

@@ -5,9 +5,16 @@
   :mod:`antikol.ingest.nmea_spec` holds what reader and writer share;
 * :mod:`antikol.ingest.protocol` — the radio frames of the other vehicles;
 * :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format (its
-  only reader and writer).
+  only reader and writer);
+* operator feeds: :mod:`antikol.ingest.hfp` (HSL-style high-frequency positioning, JSON or
+  CSV) and :mod:`antikol.ingest.gtfsrt` (GTFS-realtime VehiclePositions, needs the
+  ``feeds`` extra), sharing :mod:`antikol.ingest.feed_common`;
+* :mod:`antikol.ingest.feeds` — any recorded log, its format recognised.
 """
 
+from antikol.ingest.feeds import LOG_FORMATS, detect_log_format, read_log
+from antikol.ingest.gtfsrt import read_gtfs_realtime, write_feed_message
+from antikol.ingest.hfp import read_hfp
 from antikol.ingest.nmea import NmeaReader, NmeaStats, read_nmea_directory, read_nmea_file
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.ingest.protocol import (
@@ -29,6 +36,7 @@ from antikol.ingest.replaylog import (
 )
 
 __all__ = [
+    "LOG_FORMATS",
     "REPLAY_COLUMNS",
     "REPLAY_OPTIONAL_COLUMNS",
     "DecoderStats",
@@ -40,13 +48,18 @@ __all__ = [
     "RowProblem",
     "StreamDecoder",
     "decode_frame",
+    "detect_log_format",
     "encode_report",
     "format_gga",
     "format_rmc",
     "format_vtg",
+    "read_gtfs_realtime",
+    "read_hfp",
+    "read_log",
     "read_nmea_directory",
     "read_nmea_file",
     "read_nmea_logs",
     "read_replay_csv",
+    "write_feed_message",
     "write_replay_csv",
 ]

@@ -2,12 +2,12 @@
 
 A replay CSV has a header line. It starts with the required columns
 ``vehicle_id,t,lat,lon,speed_mps,course_deg`` (:data:`REPLAY_COLUMNS`, in this order).
-Any of the optional columns ``braking``, ``length_m``, ``antenna_offset_m`` and ``seq``
-(:data:`REPLAY_OPTIONAL_COLUMNS`) may follow, in any order; the reader puts them into the
-reports, and an empty cell means "not given" (the report's default: ``braking="none"``,
-the others None). Other columns after the required ones are ignored; an optional column
-named twice in the header is an error. Units are those of
-:class:`~antikol.report.VehicleReport` (s, degrees, m/s, metres).
+Any of the optional columns ``braking``, ``length_m``, ``antenna_offset_m``, ``seq``,
+``hdop``, ``fix_quality`` and ``odometer_m`` (:data:`REPLAY_OPTIONAL_COLUMNS`) may follow,
+in any order; the reader puts them into the reports, and an empty cell means "not given"
+(the report's default: ``braking="none"``, the others None). Other columns after the
+required ones are ignored; an optional column named twice in the header is an error.
+Units are those of :class:`~antikol.report.VehicleReport` (s, degrees, m/s, metres).
 
 Recorded logs may also be a directory of per-vehicle NMEA logs (:func:`read_nmea_logs`).
 """
@@ -45,6 +45,9 @@ _OPTIONAL_PARSERS: Final[dict[str, Callable[[str], Any]]] = {
     "length_m": float,
     "antenna_offset_m": float,
     "seq": int,
+    "hdop": float,
+    "fix_quality": int,
+    "odometer_m": float,
 }
 #: The optional columns that may follow the required ones, in any order.
 REPLAY_OPTIONAL_COLUMNS: Final = tuple(_OPTIONAL_PARSERS)
@@ -52,19 +55,59 @@ REPLAY_OPTIONAL_COLUMNS: Final = tuple(_OPTIONAL_PARSERS)
 
 @dataclass(frozen=True, slots=True)
 class RowProblem:
-    """A rejected row of a replay log: its 1-based line number and the reason."""
+    """A bad record of a log: where it is and why it could not be used (or was changed).
+
+    Attributes
+    ----------
+    line : int
+        1-based line number (text formats) or record number within its file (JSON
+        arrays, GTFS-realtime entities); 0 when the whole file is concerned.
+    reason : str
+        What is wrong, naming the field.
+    source : str
+        The file, when a log spans several files (else empty).
+    kept : bool
+        The record was kept without the offending field (e.g. an odometer that went
+        back), rather than dropped.
+    """
 
     line: int
     reason: str
+    source: str = ""
+    kept: bool = False
+
+    def where(self) -> str:
+        """``file:line`` (or ``line N``, or the file alone for a whole-file problem)."""
+        if self.source:
+            return f"{self.source}:{self.line}" if self.line else self.source
+        return f"line {self.line}" if self.line else "log"
 
 
 @dataclass
 class ReplayLog:
-    """Reports read from a log plus the rows that could not be used."""
+    """Reports read from a log plus the records that could not be used.
+
+    Attributes
+    ----------
+    reports : list of VehicleReport
+        In time order for the feed formats.
+    problems : list of RowProblem
+        Bad records (dropped unless ``kept``).
+    source : str
+    ignored : dict of str to int
+        Valid records deliberately not turned into reports, by reason (e.g. HFP events
+        other than vehicle positions, duplicate GTFS-realtime snapshots).
+    """
 
     reports: list[VehicleReport]
     problems: list[RowProblem] = field(default_factory=list)
     source: str = ""
+    ignored: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def rejected(self) -> int:
+        """Records dropped because they were bad."""
+        return sum(not p.kept for p in self.problems)
 
 
 def read_replay_csv(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog:

@@ -29,6 +29,9 @@ Modules, in the order data flows through them:
 * :mod:`~antikol.sim.dynamics` — the driver model, stepped for all trams at once;
 * :mod:`~antikol.sim.truth` — true states and GPS fix logs;
 * :mod:`~antikol.sim.gps` — the receiver model that turns truth into reports;
+* :mod:`~antikol.sim.places` — double track, where GPS errors hurt most;
+* :mod:`~antikol.sim.urban_gps` — the realistic street receiver (multipath, outages,
+  odometer);
 * :mod:`~antikol.sim.simulator` — :class:`Simulator` and :class:`SimulationResult`;
 * :mod:`~antikol.sim.fleet` — many trams on random routes.
 """
@@ -42,6 +45,7 @@ from antikol.sim.route_building import random_route, route_from_edges
 from antikol.sim.routes import Route, map_stops_on_route
 from antikol.sim.simulator import DEFAULT_EPOCH_UTC_S, SimulationResult, Simulator
 from antikol.sim.truth import FixLog, Truth, TruthState
+from antikol.sim.urban_gps import ReceiverModel, UrbanGpsModel
 from antikol.sim.vehicles import TramSpec
 
 __all__ = [
@@ -52,6 +56,7 @@ __all__ = [
     "EventKind",
     "FixLog",
     "GpsModel",
+    "ReceiverModel",
     "Route",
     "ScriptEvent",
     "SimulationResult",
@@ -61,6 +66,7 @@ __all__ = [
     "TramSpec",
     "Truth",
     "TruthState",
+    "UrbanGpsModel",
     "crossing_clearance_m",
     "fleet",
     "map_stops_on_route",

@@ -16,8 +16,10 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from antikol.report import MAX_ROUTE_EDGES, VehicleReport
 from antikol.sim.track import Track
@@ -25,7 +27,24 @@ from antikol.sim.truth import FixLog, Truth
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
-__all__ = ["GpsModel", "noise_generators", "observe"]
+if TYPE_CHECKING:
+    from antikol.sim.urban_gps import UrbanGpsModel
+
+__all__ = [
+    "Epochs",
+    "GpsModel",
+    "blocked_after_tunnels",
+    "check_fields",
+    "epochs",
+    "held_course",
+    "make_reports",
+    "noise_generators",
+    "observe",
+]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,30 +100,35 @@ class GpsModel:
     course_hold_speed_mps: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in (
-            "sigma_m",
-            "bias_sigma_m",
-            "outlier_sigma_m",
-            "tunnel_reacquire_s",
-            "speed_sigma_mps",
-            "course_sigma_deg",
-            "course_hold_speed_mps",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"GpsModel.{name} must be a finite number >= 0, got {value!r}")
-        for name in ("outlier_rate", "missing_rate"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and 0.0 <= value <= 1.0):
-                raise ValueError(f"GpsModel.{name} must be a probability in [0, 1], got {value!r}")
-        if not (isinstance(self.bias_tau_s, int | float) and self.bias_tau_s > 0):
-            raise ValueError(f"GpsModel.bias_tau_s must be > 0 s, got {self.bias_tau_s!r}")
-        if not (
-            isinstance(self.rate_hz, int | float)
-            and math.isfinite(self.rate_hz)
-            and 0 < self.rate_hz <= 100
-        ):
-            raise ValueError(f"GpsModel.rate_hz must be in (0, 100] Hz, got {self.rate_hz!r}")
+        check_fields(
+            self,
+            non_negative=(
+                "sigma_m",
+                "bias_sigma_m",
+                "outlier_sigma_m",
+                "tunnel_reacquire_s",
+                "speed_sigma_mps",
+                "course_sigma_deg",
+                "course_hold_speed_mps",
+            ),
+            probabilities=("outlier_rate", "missing_rate"),
+            positive=("bias_tau_s",),
+        )
+
+    @classmethod
+    def urban(cls, **overrides: Any) -> UrbanGpsModel:
+        """The realistic street receiver (:class:`~antikol.sim.urban_gps.UrbanGpsModel`):
+        multipath bias that jumps and is worst on double track between buildings, heavy
+        tails, outages, an odometer and no-fix reports in tunnels.
+
+        Parameters
+        ----------
+        **overrides
+            Fields of :class:`~antikol.sim.urban_gps.UrbanGpsModel` to change.
+        """
+        from antikol.sim.urban_gps import UrbanGpsModel
+
+        return UrbanGpsModel(**overrides)
 
     @classmethod
     def exact(cls, *, rate_hz: float = 1.0) -> GpsModel:
@@ -116,6 +140,49 @@ class GpsModel:
             course_sigma_deg=0.0,
             rate_hz=rate_hz,
         )
+
+
+def check_fields(
+    model: Any,
+    *,
+    non_negative: tuple[str, ...] = (),
+    probabilities: tuple[str, ...] = (),
+    positive: tuple[str, ...] = (),
+) -> None:
+    """Validate a receiver model's fields, and its ``rate_hz`` in (0, 100] Hz.
+
+    Parameters
+    ----------
+    model : object
+        A frozen receiver model (its class name goes into the messages).
+    non_negative, probabilities, positive : tuple of str
+        Fields that must be finite and >= 0, in [0, 1], and > 0.
+
+    Raises
+    ------
+    ValueError
+        The first field out of its domain, by name.
+    """
+    cls = type(model).__name__
+
+    def number(value: object) -> bool:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+
+    for name in non_negative:
+        value = getattr(model, name)
+        if not (number(value) and math.isfinite(value) and value >= 0):
+            raise ValueError(f"{cls}.{name} must be a finite number >= 0, got {value!r}")
+    for name in probabilities:
+        value = getattr(model, name)
+        if not (number(value) and 0.0 <= value <= 1.0):
+            raise ValueError(f"{cls}.{name} must be a probability in [0, 1], got {value!r}")
+    for name in positive:
+        value = getattr(model, name)
+        if not (number(value) and value > 0):
+            raise ValueError(f"{cls}.{name} must be > 0, got {value!r}")
+    rate = model.rate_hz
+    if not (number(rate) and math.isfinite(rate) and 0 < rate <= 100):
+        raise ValueError(f"{cls}.rate_hz must be in (0, 100] Hz, got {rate!r}")
 
 
 def noise_generators(seed: int, vehicle_id: str) -> tuple[np.random.Generator, np.random.Generator]:
@@ -140,6 +207,96 @@ def noise_generators(seed: int, vehicle_id: str) -> tuple[np.random.Generator, n
 def _id_words(vehicle_id: str) -> list[int]:
     digest = hashlib.sha256(vehicle_id.encode("utf-8")).digest()
     return [int.from_bytes(digest[i : i + 4], "little") for i in range(0, 16, 4)]
+
+
+@dataclass(frozen=True, eq=False)
+class Epochs:
+    """A tram's true state at its receiver's fix epochs (shared by the receiver models).
+
+    Attributes
+    ----------
+    t_s : ndarray
+        Epoch times, s (whole multiples of ``1/rate_hz``).
+    distance_m, speed_mps : ndarray
+        Route distance of the front, m, and true speed, m/s.
+    antenna_m : ndarray
+        Route distance of the antenna, m.
+    x_m, y_m : ndarray
+        True antenna position in the map's local frame, m.
+    grid_heading_rad : ndarray
+        Track heading at the antenna from grid north, radians clockwise.
+    convergence_deg : ndarray
+        True azimuth of grid north there, degrees.
+    step : ndarray of int
+        Index of the track step (edge) the antenna is on.
+    tunnel : ndarray of bool
+        The antenna is on a tunnel edge.
+    braking : ndarray of str
+        The brake state announced at each epoch.
+    """
+
+    t_s: FloatArray
+    distance_m: FloatArray
+    speed_mps: FloatArray
+    antenna_m: FloatArray
+    x_m: FloatArray
+    y_m: FloatArray
+    grid_heading_rad: FloatArray
+    convergence_deg: FloatArray
+    step: IntArray
+    tunnel: BoolArray
+    braking: npt.NDArray[np.str_]
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+
+def epochs(rate_hz: float, spec: TramSpec, track: Track, truth: Truth) -> Epochs:
+    """The true states of a tram at the fix epochs of a receiver running at ``rate_hz``.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Fix rate, Hz.
+    spec : TramSpec
+    track : Track
+    truth : Truth
+
+    Returns
+    -------
+    Epochs
+    """
+    rate = rate_hz
+    if len(truth):
+        m0 = math.ceil(truth.t_s[0] * rate - 1e-6)
+        m1 = math.floor(truth.t_s[-1] * rate + 1e-6)
+    else:
+        m0, m1 = 0, -1
+    tf = np.arange(m0, m1 + 1, dtype=np.float64) / rate
+    n = len(tf)
+    if n:
+        s = np.interp(tf, truth.t_s, truth.distance_m)
+        v = np.interp(tf, truth.t_s, truth.speed_mps)
+        ki = np.clip(np.searchsorted(truth.t_s, tf + 1e-6, side="right") - 1, 0, len(truth) - 1)
+    else:
+        s = v = np.zeros(0)
+        ki = np.zeros(0, dtype=np.int64)
+    sa = s - spec.antenna_m
+    x, y = track.xy(sa)
+    ak, _, _ = track.locate(sa)
+    return Epochs(
+        t_s=tf,
+        distance_m=s,
+        speed_mps=v,
+        antenna_m=sa,
+        x_m=x,
+        y_m=y,
+        grid_heading_rad=track.grid_heading_rad(sa),
+        convergence_deg=track.convergence_deg(sa),
+        step=ak,
+        tunnel=track.tunnel[ak],
+        braking=truth.braking[ki],
+    )
 
 
 def observe(
@@ -172,29 +329,15 @@ def observe(
     log : FixLog
         Every fix epoch with its error terms.
     """
-    tr = track
+    ep = epochs(gps.rate_hz, spec, track, truth)
     rate = gps.rate_hz
-    if len(truth):
-        m0 = math.ceil(truth.t_s[0] * rate - 1e-6)
-        m1 = math.floor(truth.t_s[-1] * rate + 1e-6)
-    else:
-        m0, m1 = 0, -1
-    tf = np.arange(m0, m1 + 1, dtype=np.float64) / rate
+    tf = ep.t_s
     n = len(tf)
-    if n:
-        s = np.interp(tf, truth.t_s, truth.distance_m)
-        v = np.interp(tf, truth.t_s, truth.speed_mps)
-        ki = np.clip(np.searchsorted(truth.t_s, tf + 1e-6, side="right") - 1, 0, len(truth) - 1)
-    else:
-        s = v = np.zeros(0)
-        ki = np.zeros(0, dtype=np.int64)
-    braking = truth.braking[ki]
-    sa = s - spec.antenna_m
-    x, y = tr.xy(sa)
-    theta = tr.grid_heading_rad(sa)
-    conv = tr.convergence_deg(sa)
-    ak, _, _ = tr.locate(sa)
-    tunnel = tr.tunnel[ak]
+    v = ep.speed_mps
+    x, y = ep.x_m, ep.y_m
+    theta = ep.grid_heading_rad
+    conv = ep.convergence_deg
+    tunnel = ep.tunnel
     g_norm, g_unif = generators
     z = g_norm.standard_normal((n, 9))  # one row per epoch: prefix-stable streams
     u = g_unif.random((n, 2))
@@ -218,24 +361,9 @@ def observe(
     raw_course = (np.degrees(np.arctan2(vx, vy)) + conv + gps.course_sigma_deg * z[:, 8]) % 360.0
     available = u[:, 1] >= gps.missing_rate
     if gps.tunnel_dropout and tunnel.any():
-        blocked = tunnel.copy()
-        if gps.tunnel_reacquire_s > 0:
-            last = -math.inf
-            for m in range(n):
-                if tunnel[m]:
-                    last = tf[m]
-                elif tf[m] - last < gps.tunnel_reacquire_s:
-                    blocked[m] = True
-        available &= ~blocked
+        available &= ~blocked_after_tunnels(tunnel, tf, gps.tunnel_reacquire_s)
     idx = np.flatnonzero(available)
-    course = np.full(n, np.nan)
-    last_course: float | None = None
-    hold = gps.course_hold_speed_mps
-    for m in idx.tolist():
-        c = float(raw_course[m])
-        if last_course is not None and speed[m] < hold:
-            c = last_course
-        course[m] = last_course = c
+    course = held_course(raw_course, speed, idx, gps.course_hold_speed_mps)
     log = FixLog(
         vehicle_id=spec.vehicle_id,
         t_s=tf,
@@ -253,15 +381,83 @@ def observe(
         true_course_deg=(np.degrees(theta) + conv) % 360.0,
         course_deg=course,
     )
+    reports = make_reports(spec, net, ep, idx, mx, my, speed, course)
+    return reports, log
+
+
+def blocked_after_tunnels(tunnel: BoolArray, t_s: FloatArray, reacquire_s: float) -> BoolArray:
+    """Epochs without a fix because of tunnels: in one, and ``reacquire_s`` after leaving it."""
+    blocked = tunnel.copy()
+    if reacquire_s > 0:
+        last = -math.inf
+        for m in range(len(t_s)):
+            if tunnel[m]:
+                last = t_s[m]
+            elif t_s[m] - last < reacquire_s:
+                blocked[m] = True
+    return blocked
+
+
+def held_course(
+    raw_course: FloatArray, speed: FloatArray, idx: IntArray, hold_speed_mps: float
+) -> FloatArray:
+    """Reported course at the epochs ``idx`` (NaN elsewhere): below ``hold_speed_mps`` of
+    measured speed the receiver holds its last course (static hold)."""
+    course = np.full(len(raw_course), np.nan)
+    last_course: float | None = None
+    for m in idx.tolist():
+        c = float(raw_course[m])
+        if last_course is not None and speed[m] < hold_speed_mps:
+            c = last_course
+        course[m] = last_course = c
+    return course
+
+
+def make_reports(
+    spec: TramSpec,
+    net: TrackMap,
+    ep: Epochs,
+    idx: IntArray,
+    mx: FloatArray,
+    my: FloatArray,
+    speed: FloatArray,
+    course: FloatArray,
+    *,
+    fix_quality: IntArray | None = None,
+    odometer_m: FloatArray | None = None,
+) -> list[VehicleReport]:
+    """The reports of the epochs ``idx`` (``seq`` counts them from 0).
+
+    Parameters
+    ----------
+    spec : TramSpec
+    net : TrackMap
+        For converting local positions to WGS84.
+    ep : Epochs
+    idx : ndarray of int
+        The epochs that yield a report, ascending.
+    mx, my : ndarray
+        Reported position per epoch in the local frame, m.
+    speed, course : ndarray
+        Reported speed (m/s) and course (degrees) per epoch.
+    fix_quality : ndarray of int, optional
+        GGA fix quality per epoch (``0``: no position fix).
+    odometer_m : ndarray, optional
+        Odometer reading per epoch, m.
+
+    Returns
+    -------
+    list of VehicleReport
+    """
     if not len(idx):
-        return [], log
+        return []
     lon, lat = net.to_lonlat(mx[idx], my[idx])
     lon = np.atleast_1d(np.asarray(lon, dtype=float))
     lat = np.atleast_1d(np.asarray(lat, dtype=float))
     route_k = None
     if spec.broadcast_route:
         route_k = np.clip(
-            np.searchsorted(spec.route.entry_m, s, side="right") - 1,
+            np.searchsorted(spec.route.entry_m, ep.distance_m, side="right") - 1,
             0,
             len(spec.route.steps) - 1,
         )
@@ -275,16 +471,18 @@ def observe(
         reports.append(
             VehicleReport(
                 vehicle_id=spec.vehicle_id,
-                t=float(tf[m]),
+                t=float(ep.t_s[m]),
                 lat=float(lat[seq]),
                 lon=float(lon[seq]),
                 speed_mps=float(speed[m]),
                 course_deg=float(course[m]),
-                braking=str(braking[m]),  # type: ignore[arg-type]
+                braking=str(ep.braking[m]),  # type: ignore[arg-type]
                 length_m=spec.length_m,
                 antenna_offset_m=spec.antenna_m,
                 route=route,
                 seq=seq,
+                fix_quality=None if fix_quality is None else int(fix_quality[m]),
+                odometer_m=None if odometer_m is None else float(odometer_m[m]),
             )
         )
-    return reports, log
+    return reports

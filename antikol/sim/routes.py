@@ -52,12 +52,17 @@ class Route:
         Start position on the first edge, metres from its first vertex.
     end_offset_m : float
         End position on the last edge, metres from its first vertex.
+    wrong_way : bool
+        The route may run against permitted directions (single-line working after a
+        crossover): its moves are physical moves (``net.traversal_any``), not
+        necessarily permitted ones.
     """
 
     steps: tuple[tuple[int, int], ...]
     edge_lengths_m: tuple[float, ...]
     start_offset_m: float
     end_offset_m: float
+    wrong_way: bool = False
 
     def __post_init__(self) -> None:
         steps = tuple((int(e), int(d)) for e, d in self.steps)
@@ -100,6 +105,7 @@ class Route:
         *,
         start_offset_m: float | None = None,
         end_offset_m: float | None = None,
+        wrong_way: bool = False,
     ) -> Route:
         """A route from ``(edge_id, direction)`` steps, checked against the map.
 
@@ -113,6 +119,9 @@ class Route:
             entry end (0 for direction +1, its length for -1).
         end_offset_m : float, optional
             End on the last edge, metres from its first vertex; default its exit end.
+        wrong_way : bool
+            Allow running against permitted directions: check the steps against the
+            physical moves (``net.traversal_any``) only.
 
         Returns
         -------
@@ -134,23 +143,25 @@ class Route:
             edge = net.edge(edge_id)
             if direction not in (1, -1):
                 raise ValueError(f"route step {k} (edge {edge_id}): direction must be +1 or -1")
-            if not edge.allows(direction):
+            if not wrong_way and not edge.allows(direction):
                 raise ValueError(
                     f"route step {k}: edge {edge_id} does not permit running direction "
                     f"{direction:+d} (permitted: {edge.direction:+d})"
                 )
+        graph = net.traversal_any if wrong_way else net.traversal
         for k, (a, b) in enumerate(itertools.pairwise(steps)):
-            if not net.traversal.has_edge(a, b):
+            if not graph.has_edge(a, b):
+                what = "physical" if wrong_way else "permitted"
                 raise ValueError(
-                    f"route steps {k} and {k + 1}: {a} -> {b} is not a permitted move"
-                    + move_hint(net, a, b)
+                    f"route steps {k} and {k + 1}: {a} -> {b} is not a {what} move"
+                    + ("" if wrong_way else move_hint(net, a, b))
                 )
         lengths = tuple(net.edge_length(e) for e, _ in steps)
         if start_offset_m is None:
             start_offset_m = 0.0 if steps[0][1] == 1 else lengths[0]
         if end_offset_m is None:
             end_offset_m = lengths[-1] if steps[-1][1] == 1 else 0.0
-        return cls(steps, lengths, float(start_offset_m), float(end_offset_m))
+        return cls(steps, lengths, float(start_offset_m), float(end_offset_m), wrong_way=wrong_way)
 
     # -- basic facts -------------------------------------------------------------------
     @property

@@ -33,6 +33,7 @@ from antikol.sim.dynamics import BRAKE_CODES, Dynamics, History
 from antikol.sim.gps import GpsModel, noise_generators, observe
 from antikol.sim.planning import DEFAULT_SPEED_MPS, SpeedPlan, VehiclePlan
 from antikol.sim.truth import FixLog, Truth
+from antikol.sim.urban_gps import ReceiverModel, UrbanGpsModel, observe_urban
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
@@ -62,7 +63,7 @@ class SimulationResult:
     plans : dict of str to SpeedPlan
         Each tram's static speed profile and stops.
     specs : tuple of TramSpec
-    gps : GpsModel
+    gps : GpsModel or UrbanGpsModel
     dt_s, duration_s : float
         Step and simulated duration, s.
     seed : int
@@ -75,7 +76,7 @@ class SimulationResult:
     fixes: dict[str, FixLog]
     plans: dict[str, SpeedPlan]
     specs: tuple[TramSpec, ...]
-    gps: GpsModel
+    gps: ReceiverModel
     dt_s: float
     duration_s: float
     seed: int
@@ -100,7 +101,8 @@ class SimulationResult:
         path : str or path-like
         extra_columns : sequence of str
             Any of :data:`~antikol.ingest.replaylog.REPLAY_OPTIONAL_COLUMNS` (``braking``,
-            ``length_m``, ``antenna_offset_m``, ``seq``).
+            ``length_m``, ``antenna_offset_m``, ``seq``, ``hdop``, ``fix_quality``,
+            ``odometer_m``).
 
         Returns
         -------
@@ -173,8 +175,9 @@ class Simulator:
     net : TrackMap
     trams : sequence of TramSpec
         Vehicle ids must be unique.
-    gps : GpsModel, optional
-        Receiver model of every tram (default :class:`GpsModel` ()).
+    gps : GpsModel or UrbanGpsModel, optional
+        Receiver model of every tram (default :class:`GpsModel` (); the realistic street
+        receiver is :meth:`GpsModel.urban`).
     dt_s : float
         Integration step, s (default 0.1).
     seed : int
@@ -214,7 +217,7 @@ class Simulator:
         net: TrackMap,
         trams: Sequence[TramSpec],
         *,
-        gps: GpsModel | None = None,
+        gps: ReceiverModel | None = None,
         dt_s: float = 0.1,
         seed: int = 0,
         epoch_utc_s: float = DEFAULT_EPOCH_UTC_S,
@@ -246,15 +249,16 @@ class Simulator:
             steps = spec.route.steps
             for e, _ in steps:
                 net.edge(e)
+            graph = net.traversal_any if spec.route.wrong_way else net.traversal
             for a, b in itertools.pairwise(steps):
-                if not net.traversal.has_edge(a, b):
+                if not graph.has_edge(a, b):
                     raise ValueError(
                         f"tram {spec.vehicle_id}: its route moves {a} -> {b}, which this map "
                         "does not permit (a route of another map?)"
                     )
         self.net = net
         self.specs = specs
-        self.gps = gps if gps is not None else GpsModel()
+        self.gps: ReceiverModel = gps if gps is not None else GpsModel()
         self.dt_s = float(dt_s)
         self.seed = int(seed)
         self.epoch_utc_s = float(epoch_utc_s)
@@ -407,9 +411,14 @@ class Simulator:
         logs: dict[str, FixLog] = {}
         for veh in self._veh:
             vid = veh.spec.vehicle_id
-            reports, logs[vid] = observe(
-                self.gps, veh.spec, veh.track, truth[vid], self.net, self.rng_for(vid)
-            )
+            if isinstance(self.gps, UrbanGpsModel):
+                reports, logs[vid] = observe_urban(
+                    self.gps, veh.spec, veh.track, truth[vid], self.net, self.rng_for(vid)
+                )
+            else:
+                reports, logs[vid] = observe(
+                    self.gps, veh.spec, veh.track, truth[vid], self.net, self.rng_for(vid)
+                )
             out.extend((r.t, veh.index, r) for r in reports)
         out.sort(key=lambda item: (item[0], item[1]))
         return tuple(r for _, _, r in out), logs

@@ -217,6 +217,18 @@ class FixLog:
     true_course_deg, course_deg : ndarray
         True track heading at the antenna and reported course (NaN when no report),
         degrees clockwise from true north.
+    canyon : ndarray, optional
+        Urban-canyon factor in [0, 1] at the antenna (urban receiver model only).
+    bias_lateral_m : ndarray, optional
+        The across-track (left-positive) part of the bias, metres (urban model only).
+    bias_jump : ndarray of bool, optional
+        The bias was re-drawn at this epoch (a satellite geometry change; urban model).
+    outage : ndarray of bool, optional
+        The receiver was in an urban-canyon outage (urban model).
+    no_fix_report : ndarray of bool, optional
+        A report without a position fix (``fix_quality`` 0) was sent (urban model).
+    odometer_m : ndarray, optional
+        Odometer reading, metres (models with an odometer).
     """
 
     vehicle_id: str
@@ -234,6 +246,12 @@ class FixLog:
     speed_mps: FloatArray
     true_course_deg: FloatArray
     course_deg: FloatArray
+    canyon: FloatArray | None = None
+    bias_lateral_m: FloatArray | None = None
+    bias_jump: BoolArray | None = None
+    outage: BoolArray | None = None
+    no_fix_report: BoolArray | None = None
+    odometer_m: FloatArray | None = None
 
     def __len__(self) -> int:
         return len(self.t_s)

@@ -1,0 +1,137 @@
+"""Recorded logs of any supported format, recognised by name and content.
+
+=============  ============================================================================
+format         what it is
+=============  ============================================================================
+``csv``        the project's replay CSV (:mod:`antikol.ingest.replaylog`)
+``nmea``       a directory of per-vehicle NMEA logs
+``hfp``        HSL-style high-frequency positioning, JSON lines / array or CSV
+               (:mod:`antikol.ingest.hfp`)
+``gtfs-rt``    GTFS-realtime VehiclePositions, a ``FeedMessage`` file or a directory of
+               them (:mod:`antikol.ingest.gtfsrt`)
+=============  ============================================================================
+
+:func:`detect_log_format` looks at the suffix and the first bytes; :func:`read_log` reads
+any of them into a :class:`~antikol.ingest.replaylog.ReplayLog`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Final, Literal
+
+from antikol.errors import InputFileError
+from antikol.ingest.gtfsrt import GTFS_RT_SUFFIXES, read_gtfs_realtime
+from antikol.ingest.hfp import looks_like_hfp_csv, read_hfp
+from antikol.ingest.replaylog import (
+    REPLAY_COLUMNS,
+    ReplayLog,
+    read_nmea_logs,
+    read_replay_csv,
+)
+
+__all__ = ["LOG_FORMATS", "LogFormat", "detect_log_format", "read_log"]
+
+LogFormat = Literal["csv", "nmea", "hfp", "gtfs-rt"]
+#: The formats :func:`read_log` reads.
+LOG_FORMATS: Final[tuple[LogFormat, ...]] = ("csv", "nmea", "hfp", "gtfs-rt")
+_JSON_SUFFIXES: Final = (".json", ".jsonl", ".ndjson", ".hfp")
+
+
+def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
+    """The format of a recorded log, from its name and first bytes.
+
+    Parameters
+    ----------
+    path : path-like
+        A file, or a directory of NMEA logs or GTFS-realtime files.
+
+    Returns
+    -------
+    {"csv", "nmea", "hfp", "gtfs-rt"}
+
+    Raises
+    ------
+    InputFileError
+        Missing, or not recognisable (the message says what was seen).
+    """
+    p = Path(path)
+    if p.is_dir():
+        names = [f.suffix.lower() for f in p.iterdir() if f.is_file()]
+        if any(s in GTFS_RT_SUFFIXES for s in names):
+            return "gtfs-rt"
+        if any(s == ".nmea" for s in names) or not names:
+            return "nmea"
+        raise InputFileError(
+            f"{p}: a directory with neither NMEA logs (.nmea) nor GTFS-realtime files "
+            f"({', '.join(GTFS_RT_SUFFIXES)}); use --format"
+        )
+    if not p.is_file():
+        raise InputFileError(f"{p}: no such file or directory")
+    suffix = p.suffix.lower()
+    if suffix in GTFS_RT_SUFFIXES:
+        return "gtfs-rt"
+    if suffix in _JSON_SUFFIXES:
+        return "hfp"
+    try:
+        with p.open("rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        raise InputFileError(f"{p}: cannot read the log: {exc.strerror or exc}") from exc
+    try:
+        text = head.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return "gtfs-rt"  # binary: a protobuf message
+    first = text.lstrip().split("\n", 1)[0].strip()
+    if first.startswith(("{", "[", "/hfp")):
+        return "hfp"
+    header = [h.strip() for h in first.split(",")]
+    if tuple(header[: len(REPLAY_COLUMNS)]) == REPLAY_COLUMNS:
+        return "csv"
+    if looks_like_hfp_csv(header):
+        return "hfp"
+    if suffix == ".csv":
+        return "csv"  # let the replay reader say what is wrong with the header
+    raise InputFileError(
+        f"{p}: not a recognised log (replay CSV, HFP JSON/CSV, GTFS-realtime); "
+        f"first line {first[:60]!r}; use --format"
+    )
+
+
+def read_log(
+    path: str | os.PathLike[str], *, log_format: str = "auto", strict: bool = False
+) -> ReplayLog:
+    """Read a recorded log of any supported format.
+
+    Parameters
+    ----------
+    path : path-like
+    log_format : {"auto", "csv", "nmea", "hfp", "gtfs-rt"}
+        ``auto`` detects it (:func:`detect_log_format`).
+    strict : bool
+        Stop at the first bad record (NMEA logs: ignored).
+
+    Returns
+    -------
+    ReplayLog
+
+    Raises
+    ------
+    ValueError
+        An unknown format name.
+    InputFileError, ReplayError
+        As the format's reader raises them.
+    """
+    fmt = detect_log_format(path) if log_format == "auto" else log_format
+    if fmt == "csv":
+        return read_replay_csv(path, strict=strict)
+    if fmt == "nmea":
+        return read_nmea_logs(path)
+    if fmt == "hfp":
+        return read_hfp(path, strict=strict)
+    if fmt == "gtfs-rt":
+        return read_gtfs_realtime(path, strict=strict)
+    raise ValueError(
+        f"unknown log format {log_format!r}; choose from auto, {', '.join(LOG_FORMATS)}"
+    )

@@ -1,0 +1,293 @@
+"""HSL-style high-frequency positioning (HFP) feeds: vehicle positions as JSON or CSV.
+
+Helsinki Region Transport publishes every vehicle's position about once a second as MQTT
+messages whose payload is a JSON object keyed by the event type, ``{"VP": {...}}`` for a
+vehicle position. The fields used here (HFP v2):
+
+=========  ===================================================================
+``oper``   operator id; with ``veh`` the vehicle id ``"<oper>/<veh>"``
+``veh``    vehicle number within the operator
+``tst``    UTC time, ISO 8601 (``2023-12-14T08:00:01.123Z``); ``tsi`` (Unix
+           seconds) when ``tst`` is missing
+``lat``,   WGS84 degrees (null when unknown)
+``long``
+``spd``    speed, m/s (null: derived from the previous record)
+``hdg``    heading, degrees from north (null: derived, or the last one kept)
+``odo``    odometer, metres — the report's ``odometer_m``
+``loc``    location source: ``GPS`` is a fix; ``ODO``, ``DR``, ``MAN`` and
+           ``N/A`` are not (``fix_quality`` 0, the position is not a measurement)
+=========  ===================================================================
+
+Accepted forms, one message per record:
+
+* **JSON lines** — one message per line; a line may also be an MQTT dump line,
+  ``<topic> <payload>`` (``mosquitto_sub -v``);
+* a **JSON array** of messages;
+* the **CSV archive** form — a header with the same field names (``long`` or ``lon``),
+  optionally an event-type column (``event_type`` or ``eventType``; rows of other events
+  are ignored).
+
+Messages of other event types (``DUE``, ``ARR``, ``DEP``, ``DOO``...) are counted as
+ignored. Bad records are reported with their line (or record) number and the field
+(:class:`~antikol.ingest.replaylog.RowProblem`); see
+:class:`~antikol.ingest.feed_common.FeedCollector` for what is derived.
+
+>>> import json
+>>> msg = {"VP": {"oper": 40, "veh": 412, "tst": "2023-12-14T08:00:01Z", "lat": 50.06,
+...        "long": 19.94, "spd": 8.2, "hdg": 91, "odo": 123456, "loc": "GPS"}}
+>>> rec = hfp_record(msg, 1, "feed.jsonl")
+>>> rec.vehicle_id, rec.t, rec.odometer_m
+('40/412', 1702540801.0, 123456.0)
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, Final
+
+from antikol.errors import InputFileError, ReplayError
+from antikol.ingest.feed_common import FeedCollector, FeedRecord
+from antikol.ingest.replaylog import ReplayLog
+
+__all__ = [
+    "HFP_EVENT",
+    "HfpRecordError",
+    "hfp_fields",
+    "hfp_record",
+    "looks_like_hfp_csv",
+    "read_hfp",
+]
+
+#: The HFP event type of vehicle positions.
+HFP_EVENT: Final = "VP"
+_NO_FIX_SOURCES: Final = frozenset({"ODO", "DR", "MAN", "N/A", "NA"})
+
+
+class HfpRecordError(ValueError):
+    """An HFP record cannot be used (the message names the field)."""
+
+
+def _number(fields: Mapping[str, Any], name: str, *, required: bool) -> float | None:
+    value = fields.get(name)
+    if value is None or (isinstance(value, str) and not value.strip()):
+        if required:
+            raise HfpRecordError(f"{name} is missing")
+        return None
+    if isinstance(value, bool):
+        raise HfpRecordError(f"{name}={value!r} is not a number")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise HfpRecordError(f"{name}={value!r} is not a number") from None
+
+
+def _time(fields: Mapping[str, Any]) -> float:
+    tst = fields.get("tst")
+    if isinstance(tst, str) and tst.strip():
+        try:
+            when = datetime.fromisoformat(tst.strip())
+        except ValueError:
+            raise HfpRecordError(f"tst={tst!r} is not an ISO 8601 time") from None
+        if when.tzinfo is None:
+            when = when.replace(tzinfo=UTC)  # HFP times are UTC
+        return when.timestamp()
+    tsi = _number(fields, "tsi", required=False)
+    if tsi is None:
+        raise HfpRecordError("tst and tsi are missing")
+    return tsi
+
+
+def _vehicle_id(fields: Mapping[str, Any]) -> str:
+    veh = fields.get("veh")
+    if veh is None or str(veh).strip() == "":
+        raise HfpRecordError("veh is missing")
+    oper = fields.get("oper")
+
+    def plain(value: Any) -> str:
+        text = str(value).strip()
+        return str(int(text)) if text.isdigit() else text
+
+    return f"{plain(oper)}/{plain(veh)}" if oper is not None and str(oper).strip() else plain(veh)
+
+
+def hfp_fields(fields: Mapping[str, Any], record: int, source: str) -> FeedRecord:
+    """A :class:`~antikol.ingest.feed_common.FeedRecord` from the fields of a VP event.
+
+    Raises
+    ------
+    HfpRecordError
+        A required field is missing or not a number, or the time is unreadable.
+    """
+    loc = fields.get("loc")
+    has_fix = not (isinstance(loc, str) and loc.strip().upper() in _NO_FIX_SOURCES)
+    return FeedRecord(
+        record=record,
+        source=source,
+        vehicle_id=_vehicle_id(fields),
+        t=_time(fields),
+        lat=_number(fields, "lat", required=False),
+        lon=_number(fields, "long", required=False)
+        if fields.get("long") is not None
+        else _number(fields, "lon", required=False),
+        speed_mps=_number(fields, "spd", required=False),
+        course_deg=_number(fields, "hdg", required=False),
+        odometer_m=_number(fields, "odo", required=False),
+        has_fix=has_fix,
+    )
+
+
+def hfp_record(message: Any, record: int, source: str = "") -> FeedRecord | str:
+    """The vehicle-position record of one HFP message, or the event type it has instead.
+
+    Parameters
+    ----------
+    message : dict
+        ``{"VP": {...}}`` (or another event type as the single key).
+    record : int
+        Line or record number, for messages.
+    source : str
+        The file.
+
+    Returns
+    -------
+    FeedRecord or str
+        The record of a ``VP`` message, else the message's event type.
+
+    Raises
+    ------
+    HfpRecordError
+        Not an HFP message, or a bad ``VP`` payload.
+    """
+    if not isinstance(message, dict) or not message:
+        raise HfpRecordError("not an HFP message (a JSON object keyed by the event type)")
+    (event, payload), *rest = message.items()
+    if rest:
+        raise HfpRecordError(f"an HFP message has one event key, got {sorted(message)}")
+    if event != HFP_EVENT:
+        return str(event)
+    if not isinstance(payload, dict):
+        raise HfpRecordError(f"the {event} payload is not a JSON object")
+    return hfp_fields(payload, record, source)
+
+
+def _json_messages(text: str) -> Iterator[tuple[int, Any | Exception]]:
+    """(line or record number, message or the error decoding it) of a JSON HFP file."""
+    if text.lstrip().startswith("["):
+        try:
+            doc = json.loads(text)
+        except json.JSONDecodeError as exc:
+            yield exc.lineno, HfpRecordError(f"unreadable JSON array: {exc.msg}")
+            return
+        yield from enumerate(doc, start=1)
+        return
+    for number, line in enumerate(text.splitlines(), start=1):
+        body = line.strip()
+        if not body:
+            continue
+        if not body.startswith("{") and " " in body:  # an MQTT dump line: topic payload
+            body = body.split(" ", 1)[1].strip()
+        try:
+            yield number, json.loads(body)
+        except json.JSONDecodeError as exc:
+            yield number, HfpRecordError(f"unreadable JSON: {exc.msg} (column {exc.colno})")
+
+
+def looks_like_hfp_csv(header: Iterable[str]) -> bool:
+    """Whether a CSV header names the HFP fields (``veh``, ``tst`` or ``tsi``, ``lat``)."""
+    names = {h.strip().lstrip("\ufeff").lower() for h in header}
+    return "veh" in names and "lat" in names and bool(names & {"tst", "tsi"})
+
+
+def _csv_records(fh: Any, path: Path) -> Iterator[tuple[int, Any | Exception]]:
+    reader = csv.reader(fh)
+    try:
+        header = [h.strip().lstrip("\ufeff") for h in next(reader)]
+    except StopIteration:
+        raise ReplayError(f"{path}: empty file (expected an HFP header line)") from None
+    if not looks_like_hfp_csv(header):
+        raise ReplayError(
+            f"{path}: not an HFP CSV header (needs veh, tst or tsi, lat, long); "
+            f"got {','.join(header)}"
+        )
+    lower = [h.lower() for h in header]
+    event_col = next((i for i, h in enumerate(lower) if h in ("event_type", "eventtype")), None)
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            yield reader.line_num, HfpRecordError(f"unreadable row: {exc}")
+            continue
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) != len(header):
+            yield (
+                reader.line_num,
+                HfpRecordError(f"{len(row)} fields, the header has {len(header)}"),
+            )
+            continue
+        fields = dict(zip(lower, row, strict=True))
+        event = row[event_col].strip().upper() if event_col is not None else HFP_EVENT
+        yield reader.line_num, {event or HFP_EVENT: fields}
+
+
+def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog:
+    """Read an HFP log: JSON lines, a JSON array of messages, or the CSV archive form.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.csv`` files (or files whose first line names the HFP fields) are read as CSV,
+        anything else as JSON.
+    strict : bool
+        Raise :class:`~antikol.errors.ReplayError` at the first bad record.
+
+    Returns
+    -------
+    ReplayLog
+        Reports in time order (``t`` in Unix seconds), bad records with their line or
+        record number and reason, and the counts of ignored events.
+
+    Raises
+    ------
+    InputFileError
+        The file is missing or unreadable.
+    ReplayError
+        A CSV header without the HFP fields, or a bad record in strict mode.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else str(exc)
+        raise InputFileError(f"{p}: cannot read the HFP log: {reason or exc}") from exc
+    first = text.lstrip().split("\n", 1)[0]
+    is_csv = p.suffix.lower() == ".csv" or (
+        not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
+    )
+    messages = _csv_records(io.StringIO(text, newline=""), p) if is_csv else _json_messages(text)
+    out = FeedCollector(str(p), strict=strict)
+    records: list[FeedRecord] = []
+    for number, message in messages:
+        if isinstance(message, Exception):
+            out.problem(number, str(p), str(message))
+            continue
+        try:
+            rec = hfp_record(message, number, str(p))
+        except HfpRecordError as exc:
+            out.problem(number, str(p), str(exc))
+            continue
+        if isinstance(rec, str):
+            out.ignore(f"HFP {rec} event (not a vehicle position)")
+        else:
+            records.append(rec)
+    for rec in sorted(records, key=lambda r: r.t):
+        out.add(rec)
+    return out.log()

@@ -1,0 +1,223 @@
+"""Operator feeds (issue 12): HSL-style HFP (JSON lines, JSON array, CSV) and
+GTFS-realtime VehiclePositions, read into reports and replayed through the CLI."""
+
+from __future__ import annotations
+
+import csv
+import json
+from datetime import UTC, datetime
+
+import pytest
+
+import trackmap
+from antikol.cli import main
+from antikol.errors import InputFileError, ReplayError
+from antikol.ingest import detect_log_format, read_gtfs_realtime, read_hfp, read_log
+from antikol.ingest.gtfsrt import write_feed_message
+from antikol.sim import GpsModel, Simulator, fleet
+
+EPOCH = 1_702_540_800.0  # 2023-12-14 08:00:00 UTC
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    """Three trams on Kraków for two minutes with the urban receiver (odometer on)."""
+    net = trackmap.load_default()
+    result = Simulator(net, fleet(net, 3, 7), gps=GpsModel.urban(), seed=7).run(120.0)
+    return [r for r in result.reports if r.fix_quality == 1]
+
+
+def _iso(t: float) -> str:
+    return datetime.fromtimestamp(EPOCH + t, tz=UTC).isoformat(timespec="milliseconds")[:-6] + "Z"
+
+
+def _vp(r, **over) -> dict:
+    oper, veh = 40, int(r.vehicle_id[1:])
+    fields = {
+        "desi": "4",
+        "dir": "1",
+        "oper": oper,
+        "veh": veh,
+        "tst": _iso(r.t),
+        "tsi": int(EPOCH + r.t),
+        "spd": round(r.speed_mps, 2),
+        "hdg": round(r.course_deg),
+        "lat": round(r.lat, 7),
+        "long": round(r.lon, 7),
+        "acc": 0.0,
+        "dl": 0,
+        "odo": round(r.odometer_m),
+        "drst": 0,
+        "oday": "2023-12-14",
+        "jrn": 1,
+        "line": 4,
+        "start": "08:00",
+        "loc": "GPS",
+        "stop": None,
+        "route": "1004",
+        "occu": 0,
+    }
+    fields.update(over)
+    return {"VP": fields}
+
+
+def test_hfp_json_lines_with_events_mqtt_lines_and_bad_records(simulated, tmp_path):
+    lines = [json.dumps(_vp(r)) for r in simulated]
+    n = len(lines)
+    topic = "/hfp/v2/journey/ongoing/vp/tram/0040/00001/1004/1/Kurdwanow/08:00/1/60;19/29/46/38"
+    lines.insert(3, f"{topic} {json.dumps(_vp(simulated[3], tst=_iso(simulated[3].t + 0.5)))}")
+    lines.insert(5, json.dumps({"DOO": {"oper": 40, "veh": 1, "tst": _iso(3.0)}}))
+    lines.insert(7, '{"VP": {"oper": 40, "veh": 2, "tst": "yesterday"}}')  # line 8
+    lines.insert(
+        9,
+        '{"VP": {"oper": 40, "veh": 2, "tst": "2023-12-14T08:00:01Z", "lat": 95.0,'
+        ' "long": 19.9, "spd": 1.0, "hdg": 0, "odo": 5}}',
+    )  # line 10: latitude
+    lines.insert(11, "{not json")  # line 12
+    path = tmp_path / "hfp.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    assert detect_log_format(path) == "hfp"
+    log = read_hfp(path)
+    assert len(log.reports) == n + 1
+    assert [(p.line, p.kept) for p in log.problems] == [(8, False), (10, False), (12, False)]
+    assert "tst" in log.problems[0].reason and "lat" in log.problems[1].reason
+    assert "JSON" in log.problems[2].reason
+    assert log.ignored == {"HFP DOO event (not a vehicle position)": 1}
+    by_vid = {r.vehicle_id for r in log.reports}
+    assert by_vid == {"40/1", "40/2", "40/3"}
+    first = next(r for r in log.reports if r.vehicle_id == "40/1")
+    src = next(r for r in simulated if r.vehicle_id == "T01")
+    assert first.t == pytest.approx(EPOCH + src.t)
+    assert first.odometer_m == round(src.odometer_m) and first.fix_quality == 1
+    assert first.lat == pytest.approx(src.lat, abs=1e-7)
+    with pytest.raises(ReplayError, match=r"hfp.jsonl:8: .*tst"):
+        read_hfp(path, strict=True)
+
+
+def test_hfp_derives_missing_speed_and_heading_and_flags_positions_without_a_fix(
+    simulated, tmp_path
+):
+    t1 = [r for r in simulated if r.vehicle_id == "T02"][:20]
+    msgs = [_vp(r) for r in t1]
+    msgs[5]["VP"]["spd"] = None
+    msgs[5]["VP"]["hdg"] = None
+    msgs[6]["VP"].update(loc="ODO", lat=None, long=None)
+    msgs[7]["VP"]["odo"] = msgs[6]["VP"]["odo"] - 50  # an odometer going back
+    msgs[0]["VP"]["spd"] = None  # the first record: nothing to derive from
+    path = tmp_path / "array.json"
+    path.write_text(json.dumps(msgs))
+    log = read_hfp(path)
+    assert [(p.line, p.kept) for p in log.problems] == [(1, False), (8, True)]
+    assert "spd" in log.problems[0].reason and "odometer" in log.problems[1].reason
+    reports = log.reports
+    assert len(reports) == 19
+    derived = reports[4]
+    assert derived.speed_mps == pytest.approx(t1[5].speed_mps, abs=1.0)
+    no_fix = reports[5]
+    assert no_fix.fix_quality == 0 and (no_fix.lat, no_fix.lon) == (reports[4].lat, reports[4].lon)
+    assert no_fix.odometer_m == msgs[6]["VP"]["odo"]
+    assert reports[6].odometer_m is None and reports[7].odometer_m == msgs[8]["VP"]["odo"]
+
+
+def test_hfp_csv_archive_form(simulated, tmp_path):
+    rows = [_vp(r)["VP"] for r in simulated[:30]]
+    path = tmp_path / "hfp.csv"
+    names = ["event_type", *rows[0].keys()]
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(names)
+        for k, row in enumerate(rows):
+            w.writerow(["VP" if k != 4 else "ARR", *["" if v is None else v for v in row.values()]])
+        w.writerow(["VP", "4", "1", "40", "9", "", "", "1.0"])  # line 32: too few fields
+    assert detect_log_format(path) == "hfp"
+    log = read_log(path)
+    assert len(log.reports) == 29
+    assert [p.line for p in log.problems] == [32]
+    assert log.ignored == {"HFP ARR event (not a vehicle position)": 1}
+    assert all(r.odometer_m is not None for r in log.reports)
+
+
+def test_gtfs_realtime_directory_with_repeats_and_bad_entities(simulated, tmp_path):
+    feed = tmp_path / "gtfsrt"
+    feed.mkdir()
+    by_t: dict[float, list] = {}
+    for r in simulated:
+        by_t.setdefault(r.t, []).append(r)
+    times = sorted(by_t)[:40]
+    for k, t in enumerate(times):
+        vehicles = [
+            {
+                "id": r.vehicle_id,
+                "label": f"tram {r.vehicle_id}",
+                "timestamp": int(EPOCH + t),
+                "lat": r.lat,
+                "lon": r.lon,
+                "speed": r.speed_mps,
+                "bearing": r.course_deg,
+                "odometer": r.odometer_m,
+                "route_id": "4",
+            }
+            for r in by_t[t]
+        ]
+        if k == 3:
+            vehicles.append({"id": "X9"})  # no position
+        write_feed_message(feed / f"vp-{k:04d}.pb", vehicles, timestamp=int(EPOCH + t))
+    # the same snapshot fetched twice, and a file that is not a feed
+    (feed / "vp-0000b.pb").write_bytes((feed / "vp-0000.pb").read_bytes())
+    (feed / "vp-0005x.pb").write_bytes(b"\xff\xff\xff garbage")
+    assert detect_log_format(feed) == "gtfs-rt"
+    log = read_gtfs_realtime(feed)
+    expected = sum(len(by_t[t]) for t in times)
+    assert len(log.reports) == expected
+    assert log.ignored == {"repeated record time of a vehicle": len(by_t[times[0]])}
+    bad = sorted((p.source.rsplit("/", 1)[-1], p.line) for p in log.problems)
+    assert bad == [("vp-0003.pb", len(by_t[times[3]]) + 1), ("vp-0005x.pb", 0)]
+    assert "position" in log.problems[0].reason or "position" in log.problems[1].reason
+    one = log.reports[0]
+    assert one.odometer_m is not None and one.fix_quality == 1
+    assert read_gtfs_realtime(feed / "vp-0001.pb").reports
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputFileError, match="no GTFS-realtime files"):
+        read_gtfs_realtime(tmp_path / "empty")
+
+
+def test_replay_cli_reads_the_feeds(simulated, tmp_path, capsys):
+    path = tmp_path / "feed.jsonl"
+    path.write_text("\n".join(json.dumps(_vp(r)) for r in simulated) + "\n")
+    events = tmp_path / "e.csv"
+    assert main(["replay", str(path), "-o", str(events), "--map", "none"]) == 0
+    out = capsys.readouterr().out
+    assert "(hfp) of 3 vehicles" in out
+    feed = tmp_path / "rt"
+    feed.mkdir()
+    for k, r in enumerate(simulated[:30]):
+        write_feed_message(
+            feed / f"{k:03d}.pb",
+            [
+                {
+                    "id": r.vehicle_id,
+                    "timestamp": int(EPOCH + r.t),
+                    "lat": r.lat,
+                    "lon": r.lon,
+                    "speed": r.speed_mps,
+                    "bearing": r.course_deg,
+                }
+            ],
+        )
+    assert main(["replay", str(feed), "-o", str(events), "--map", "none"]) == 0
+    assert "(gtfs-rt)" in capsys.readouterr().out
+    assert main(["replay", str(path), "--format", "gtfs-rt", "-o", str(events)]) == 2
+    assert "not a GTFS-realtime FeedMessage" in capsys.readouterr().err
+
+
+def test_urban_simulation_round_trips_through_the_replay_csv(tmp_path, capsys):
+    out = tmp_path / "urban.csv"
+    argv = ["simulate", "--map", "synthetic", "--scenario", "tunnel_dropout", "--gps", "urban"]
+    assert main([*argv, "-o", str(out)]) == 0
+    log = read_log(out)
+    assert log.problems == [] and log.reports
+    assert {r.fix_quality for r in log.reports} == {0, 1}  # no fix in the tunnel
+    assert all(r.odometer_m is not None for r in log.reports)
+    capsys.readouterr()
+    assert main(["replay", str(out), "-o", str(tmp_path / "e.csv"), "--map", "synthetic"]) == 0
+    assert "(csv) of 2 vehicles" in capsys.readouterr().out

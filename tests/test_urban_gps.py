@@ -1,0 +1,176 @@
+"""The realistic street GPS model (issue 12): multipath bias, heavy tails, outages, odometer."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import trackmap
+from antikol.sim import GpsModel, Route, Simulator, TramSpec, UrbanGpsModel
+from antikol.sim.places import double_track_share, on_double_track
+from antikol.sim.urban_gps import canyon_factors
+from tests._osm import FRAME, OsmBuilder
+
+
+def _build(b: OsmBuilder, tmp_path_factory: pytest.TempPathFactory, name: str):
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp(name) / f"{name}.osm"))
+
+
+@pytest.fixture(scope="module")
+def street(tmp_path_factory):
+    """2 km of double track (3.8 m apart, right-hand running) then 2 km of single track
+    in the open, then a 300 m tunnel and 700 m more, all running north."""
+    b = OsmBuilder()
+    a, c, d = b.node(0, 2000), b.node(0, 4000), b.node(0, 4300)
+    b.line([(0, 0), (0, 1000), a], oneway="yes", maxspeed="50")
+    b.line([(-3.8, 2000), (-3.8, 1000), (-3.8, 0)], oneway="yes")  # the other way
+    b.line([a, (0, 3000), c], oneway="yes", maxspeed="60")
+    b.line([c, d], oneway="yes", tunnel="yes")
+    b.line([d, (0, 5000)], oneway="yes")
+    return _build(b, tmp_path_factory, "street")
+
+
+def _north_route(net: trackmap.TrackMap) -> Route:
+    steps = []
+    for y in (500.0, 2500.0, 4100.0, 4600.0):
+        (cand,) = [c for c in net.candidates(*FRAME.to_lonlat(0.0, y), radius_m=1.0)]
+        steps.append((cand.edge_id, 1 if net.edges[cand.edge_id].direction == 1 else -1))
+    return Route.from_steps(net, steps)
+
+
+@pytest.fixture(scope="module")
+def run(street):
+    """One tram driving the whole line at up to 10 m/s, 1 Hz urban fixes, six seeds."""
+    spec = TramSpec("U", _north_route(street), stops=(), max_speed_mps=10.0)
+    return [Simulator(street, [spec], gps=GpsModel.urban(), seed=k).run(560.0) for k in range(6)]
+
+
+def test_double_track_is_found_and_is_the_canyon(street):
+    share = double_track_share(street)
+    route = _north_route(street)
+    shares = [share[e] for e, _ in route.steps]
+    assert shares[0] > 0.9 and shares[1] < 0.1 and shares[2] < 0.1
+    x, y = street.to_local(*FRAME.to_lonlat(np.zeros(3), np.array([1000.0, 2500.0, 4600.0])))
+    assert on_double_track(street, x, y).tolist() == [True, False, False]
+    factors = canyon_factors(UrbanGpsModel(canyon_spread=0.0), street)
+    assert factors[route.steps[0][0]] == pytest.approx(0.8)
+    assert factors[route.steps[1][0]] == pytest.approx(0.2, abs=0.02)
+    assert factors[route.steps[2][0]] == pytest.approx(0.2)  # tunnels: no multipath
+    # a property of the place, the same for every run and tram
+    assert np.array_equal(
+        canyon_factors(UrbanGpsModel(), street), canyon_factors(UrbanGpsModel(), street)
+    )
+
+
+def test_multipath_bias_is_lateral_persistent_and_worst_in_the_canyon(run):
+    logs = [r.fixes[v] for r in run for v in r.fixes]
+    canyon = np.concatenate([f.canyon for f in logs])
+    lateral = np.concatenate([f.bias_lateral_m for f in logs])
+    bx = np.concatenate([f.bias_x_m for f in logs])
+    high, low = canyon > 0.5, (canyon < 0.3) & (canyon > 0.0)
+    assert high.sum() > 500 and low.sum() > 500
+    # on a north-running line the lateral bias is the east-west one
+    assert np.allclose(np.abs(lateral), np.abs(bx), atol=0.05 * np.abs(lateral).max())
+    assert lateral[high].std() > 2.0 * lateral[low].std()
+    assert lateral[high].std() > 2.0
+    # persistent between jumps: one-second changes are small against the bias itself
+    steps = np.concatenate([np.diff(f.bias_lateral_m)[~f.bias_jump[1:]] for f in logs])
+    assert np.median(np.abs(steps)) < 0.2 * lateral[high].std()
+    jumps = sum(int(f.bias_jump.sum()) for f in logs)
+    assert 20 < jumps < 200  # mean interval 120 s / (1 + c) over ~5,600 epochs
+
+
+def test_white_noise_has_heavy_tails(street):
+    route = _north_route(street)
+    spec = TramSpec("H", route, stops=(), max_speed_mps=10.0)
+    open_sky = GpsModel.urban(
+        bias_open_m=0.0,
+        bias_canyon_lateral_m=0.0,
+        bias_canyon_along_m=0.0,
+        dropout_open_hz=0.0,
+        dropout_canyon_hz=0.0,
+        outlier_rate=0.0,
+    )
+    logs = [Simulator(street, [spec], gps=open_sky, seed=k).run(480.0).fixes["H"] for k in range(6)]
+    e = np.concatenate([f.x_m - f.true_x_m for f in logs] + [f.y_m - f.true_y_m for f in logs])
+    scale = 1.5
+    # Student-t, 4 dof: std = scale * sqrt(2); far more beyond 4 scales than a normal
+    assert e.std() == pytest.approx(scale * math.sqrt(2.0), rel=0.15)
+    beyond = np.mean(np.abs(e) > 4.0 * scale)
+    normal_same_std = math.erfc(4.0 / math.sqrt(2.0) / math.sqrt(2.0))
+    assert beyond > 2.0 * normal_same_std
+
+
+def test_outages_are_runs_and_come_in_the_canyon(run):
+    logs = [r.fixes[v] for r in run for v in r.fixes]
+    outage = np.concatenate([f.outage for f in logs])
+    canyon = np.concatenate([f.canyon for f in logs])
+    assert outage.any()
+    # hazard 0.0081/s against 0.0024/s (noisy: a few dozen outages in all)
+    assert outage[canyon > 0.5].mean() > 1.5 * outage[(canyon < 0.3) & (canyon > 0)].mean()
+    lengths = [len(list(g)) for f in logs for k, g in itertools.groupby(f.outage.tolist()) if k]
+    assert np.mean(lengths) > 2.0  # runs, not single misses
+
+
+def test_odometer_and_no_fix_reports_in_the_tunnel(run, street):
+    for result in run:
+        (vid,) = result.truth
+        reports = result.reports_of(vid)
+        log = result.fixes[vid]
+        truth = result.truth[vid]
+        odo = np.array([r.odometer_m for r in reports])
+        assert (np.diff(odo) >= 0).all()
+        # the odometer measures the distance run with a small scale error
+        t = np.array([r.t for r in reports])
+        run_m = np.interp(t, truth.t_s, truth.distance_m)
+        scale = (odo[-1] - odo[0]) / (run_m[-1] - run_m[0])
+        assert scale == pytest.approx(1.0, abs=0.02)
+        # in the tunnel: reports without a fix, at the last known position, with odometer
+        no_fix = [r for r in reports if r.fix_quality == 0]
+        inside = [r for r in no_fix if truth.at(r.t).in_tunnel]
+        assert inside, vid
+        assert all(r.fix_quality in (0, 1) for r in reports)
+        assert len(reports) == int(log.available.sum() + log.no_fix_report.sum())
+        for a, b in itertools.pairwise(reports):
+            if b.fix_quality == 0:
+                assert (b.lat, b.lon, b.course_deg) == (a.lat, a.lon, a.course_deg)
+        assert not log.available[log.in_tunnel].any()
+
+
+def test_course_is_good_when_moving_and_speed_within_a_fraction_of_a_metre(run):
+    logs = [r.fixes[v] for r in run for v in r.fixes]
+    for f in logs:
+        fast = f.available & (f.true_speed_mps > 8.0)
+        err = (f.course_deg[fast] - f.true_course_deg[fast] + 180.0) % 360.0 - 180.0
+        assert np.std(err) < 4.0
+        assert np.std(f.speed_mps[fast] - f.true_speed_mps[fast]) < 0.25
+
+
+def test_urban_noise_is_reproducible_and_prefix_stable(street):
+    route = _north_route(street)
+    spec = TramSpec("R", route, stops=(), max_speed_mps=10.0)
+    a = Simulator(street, [spec], gps=GpsModel.urban(), seed=4).run(200.0)
+    b = Simulator(street, [spec], gps=GpsModel.urban(), seed=4).run(200.0)
+    longer = Simulator(street, [spec], gps=GpsModel.urban(), seed=4).run(300.0)
+    assert a.reports == b.reports
+    assert longer.reports[: len(a.reports) - 1] == a.reports[:-1]
+
+
+def test_the_white_noise_model_reports_neither_odometer_nor_fix_quality(street):
+    route = _north_route(street)
+    spec = TramSpec("W", route, stops=(), max_speed_mps=10.0)
+    result = Simulator(street, [spec], gps=GpsModel(), seed=1).run(100.0)
+    assert all(r.odometer_m is None and r.fix_quality is None for r in result.reports)
+    assert result.fixes["W"].canyon is None
+
+
+def test_bad_urban_parameters_are_rejected():
+    with pytest.raises(ValueError, match="tail_dof"):
+        UrbanGpsModel(tail_dof=2.0)
+    with pytest.raises(ValueError, match="canyon_open"):
+        UrbanGpsModel(canyon_open=1.5)
+    with pytest.raises(ValueError, match="jump_interval_s"):
+        UrbanGpsModel(jump_interval_s=0.0)
