@@ -105,6 +105,22 @@ def wrong_way():
     return scn, wrong_way_positioning(net, result, "W"), compare(net, result, name=scn.name)
 
 
+@pytest.fixture(scope="module")
+def wrong_way_dgps():
+    net = trackmap.load_default()
+    scn = build_scenario("wrong_way_single_line", net, seed=2)
+    gps = GpsModel(sigma_m=0.7, bias_sigma_m=0.5, fix_quality=2)  # differential receiver
+    result = run_scenario(dataclasses.replace(scn, gps=gps))
+    return wrong_way_positioning(net, result, "W"), compare(net, result, name=scn.name)
+
+
+def test_wrong_way_running_is_detected_with_a_differential_receiver(wrong_way_dgps):
+    ww, comparison = wrong_way_dgps
+    assert ww.flagged_on_true_track >= 0.8 * ww.fixes
+    assert ww.first_detection_s is not None and ww.first_detection_s <= 10.0
+    assert comparison.track.missed == 0
+
+
 def test_the_wrong_way_scenario_runs_wrong_way_over_a_crossover(wrong_way):
     scn, ww, comparison = wrong_way
     assert "crossover" in scn.description and scn.specs[0].route.wrong_way
@@ -112,13 +128,9 @@ def test_the_wrong_way_scenario_runs_wrong_way_over_a_crossover(wrong_way):
     assert comparison.track.required >= 1  # a head-on conflict with O on that track
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="positioning puts a tram running wrong way on the adjacent, permitted track "
-    "(confident, never flagged wrong_way; measured: 0 of 40 fixes on the true track with "
-    "exact GPS) and the track-aware analyser misses the head-on conflict",
-)
 def test_positioning_detects_wrong_way_running(wrong_way):
+    # an RTK receiver (fix quality 4) puts the tram on its true track at once: wrong-way
+    # running is detected from the first fix and the head-on conflict is warned
     _, ww, comparison = wrong_way
     assert ww.detected_share >= 0.8
     assert ww.first_detection_s is not None and ww.first_detection_s <= 10.0

@@ -27,9 +27,13 @@ class PositioningConfig:
     Attributes
     ----------
     gps_sigma_m : float
-        White noise of a fix per axis, m (scaled up by HDOP above 1).
+        White noise of a fix per axis, m (scaled up by HDOP above 1), for a plain GNSS
+        fix (GGA quality 1, or none reported).
     bias_sigma_m : float
-        Stationary standard deviation of the GPS bias per axis, m.
+        Stationary standard deviation of the GPS bias per axis, m (plain fix).
+    dgps_sigma_m, rtk_float_sigma_m, rtk_sigma_m : float
+        White noise and bias of a fix that reports GGA quality 2 (differential), 5 (RTK
+        float) and 4 (RTK fixed), m: a receiver that says it is better is believed.
     bias_tau_s : float
         Correlation time of the bias, s.
     outlier_weight : float
@@ -113,6 +117,9 @@ class PositioningConfig:
     gps_sigma_m: float = 3.0
     bias_sigma_m: float = 2.5
     bias_tau_s: float = 60.0
+    dgps_sigma_m: float = 1.0
+    rtk_float_sigma_m: float = 0.3
+    rtk_sigma_m: float = 0.05
     outlier_weight: float = 0.02
     search_radius_m: float = 25.0
     max_hypotheses: int = 8
@@ -161,7 +168,15 @@ class PositioningConfig:
                     raise InvalidArgumentError(f.name, value, "a log-probability is <= 0")
             elif value < 0.0:
                 raise InvalidArgumentError(f.name, value, "must be >= 0")
-        for name in ("gps_sigma_m", "bias_tau_s", "transition_beta_m", "search_radius_m"):
+        for name in (
+            "gps_sigma_m",
+            "bias_tau_s",
+            "transition_beta_m",
+            "search_radius_m",
+            "dgps_sigma_m",
+            "rtk_float_sigma_m",
+            "rtk_sigma_m",
+        ):
             if getattr(self, name) <= 0.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
         if self.max_hypotheses < 1:
@@ -169,3 +184,13 @@ class PositioningConfig:
         for name in ("confidence", "switch_probability", "outlier_weight"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")
+
+    def error_scales(self, fix_quality: int | None) -> tuple[float, float]:
+        """White noise and bias standard deviations of a fix of this GGA quality, m."""
+        if fix_quality == 4:
+            return self.rtk_sigma_m, self.rtk_sigma_m
+        if fix_quality == 5:
+            return self.rtk_float_sigma_m, self.rtk_float_sigma_m
+        if fix_quality == 2:
+            return self.dgps_sigma_m, self.dgps_sigma_m
+        return self.gps_sigma_m, self.bias_sigma_m

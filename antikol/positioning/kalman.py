@@ -206,21 +206,23 @@ class BiasState:
     pyy: FloatArray
 
     @classmethod
-    def prior(cls, n: int, sigma_m: float) -> BiasState:
-        """The stationary prior: zero mean, ``sigma_m`` per axis."""
-        var = sigma_m * sigma_m
-        return cls(np.zeros(n), np.zeros(n), np.full(n, var), np.zeros(n), np.full(n, var))
+    def prior(cls, n: int, sigma_m: npt.ArrayLike) -> BiasState:
+        """The stationary prior: zero mean, ``sigma_m`` per axis (a scalar or per state)."""
+        var = np.broadcast_to(np.asarray(sigma_m, dtype=float) ** 2, (n,)).copy()
+        return cls(np.zeros(n), np.zeros(n), var, np.zeros(n), var.copy())
 
     def take(self, idx: Any) -> BiasState:
         """The states at ``idx`` (copies)."""
         return BiasState(self.bx[idx], self.by[idx], self.pxx[idx], self.pxy[idx], self.pyy[idx])
 
 
-def bias_predict(b: BiasState, dt: FloatArray, sigma_m: float, tau_s: float) -> BiasState:
+def bias_predict(
+    b: BiasState, dt: npt.ArrayLike, sigma_m: npt.ArrayLike, tau_s: float
+) -> BiasState:
     """Gauss–Markov prediction: ``b' = rho b``, ``P' = rho² P + (1 - rho²) sigma²``."""
     rho = np.exp(-np.maximum(np.asarray(dt, dtype=float), 0.0) / tau_s)
     r2 = rho * rho
-    add = (1.0 - r2) * sigma_m * sigma_m
+    add = (1.0 - r2) * np.asarray(sigma_m, dtype=float) ** 2
     return BiasState(rho * b.bx, rho * b.by, r2 * b.pxx + add, r2 * b.pxy, r2 * b.pyy + add)
 
 

@@ -81,8 +81,6 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 _NEG_INF = -math.inf
 _LOG_2PI = math.log(2.0 * math.pi)
-#: A matched along-track position is as good as the GPS error along the track, m.
-_ALONG_SIGMA_FACTOR = 1.0
 #: Hypotheses this close (m) across a plain node are the same place.
 _SAME_PLACE_M = 3.0
 #: A fix may lie this far beyond an edge's end (along it) and still be a candidate of it, m.
@@ -365,7 +363,9 @@ class Positioner:
         c = self.config
         n = len(reports)
         hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
-        sigma = c.gps_sigma_m * hdop
+        scales = np.array([c.error_scales(r.fix_quality) for r in reports], dtype=float)
+        sigma = scales[:, 0] * hdop
+        bias_sigma = scales[:, 1] * hdop
         radius = np.maximum(c.search_radius_m, 4.0 * sigma)
         found = self._candidates(xs, ys, radius)
         # one candidate state per (candidate place, running direction)
@@ -451,7 +451,7 @@ class Positioner:
             self._f.pxy[prow],
             self._f.pyy[prow],
         )
-        prior = bias_predict(parent, dt[cv][:, None], c.bias_sigma_m, c.bias_tau_s)
+        prior = bias_predict(parent, dt[cv][:, None], bias_sigma[cv][:, None], c.bias_tau_s)
         post, resid, var = bias_update(
             prior, nx[:, None], ny[:, None], lateral[:, None], noise_var[:, None]
         )
@@ -471,7 +471,7 @@ class Positioner:
         lse = np.where(np.isfinite(top), lse, _NEG_INF)
 
         # fresh starts: the emission alone, with the stationary bias prior
-        start = BiasState.prior(len(cs), c.bias_sigma_m)
+        start = BiasState.prior(len(cs), bias_sigma[cv])
         post0, resid0, var0 = bias_update(start, nx, ny, lateral, noise_var)
         lat0 = np.log(
             (1.0 - c.outlier_weight)
@@ -539,7 +539,7 @@ class Positioner:
             new_parent,
             new_ww,
             bias_cols,
-            sigma,
+            np.hypot(sigma, bias_sigma),
         )
 
     def _candidates(self, xs: FloatArray, ys: FloatArray, radius: FloatArray) -> _Found:
@@ -625,7 +625,7 @@ class Positioner:
         parent: IntArray,
         ww: FloatArray,
         bias_cols: tuple[FloatArray, ...],
-        sigma: FloatArray,
+        along_sigma: FloatArray,
     ) -> None:
         """Keep the best hypotheses of every vehicle, choose the reported lineage, run the
         along-track filter."""
@@ -681,7 +681,7 @@ class Positioner:
                 odo[i],
                 prog[chosen],
                 restart=bool(fresh[i] or switched),
-                sigma=sigma[i],
+                along_sigma=float(along_sigma[i]),
             )
             if self.fixes.active and not fresh[i] and not switched:
                 self.fixes.track_expected(report.vehicle_id, self, row, prog[chosen])
@@ -736,13 +736,16 @@ class Positioner:
         progress: float,
         *,
         restart: bool,
-        sigma: float,
+        along_sigma: float,
     ) -> None:
+        """Fuse the reported lineage's progress (and speed or odometer) into the along-track
+        filter; ``along_sigma`` is the fix's error along the track (white and bias), m."""
         c = self.config
         kf = self._f.kf
+        along = along_sigma
         if restart or math.isnan(kf.t[row]):
             kf.t[row], kf.s[row], kf.v[row] = t, progress, speed
-            kf.pss[row] = (sigma * _ALONG_SIGMA_FACTOR) ** 2 + c.bias_sigma_m**2
+            kf.pss[row] = along * along
             kf.psv[row] = 0.0
             kf.pvv[row] = (2.0 * c.speed_sigma_mps) ** 2
             self.stats["filter_reset"] += 1
@@ -760,7 +763,6 @@ class Positioner:
             else:
                 track_predict(kf, row, np.float64(t), c.accel_sigma_mps2)
                 v_meas = np.float64(speed)
-            along = math.hypot(sigma, c.bias_sigma_m) * _ALONG_SIGMA_FACTOR
             nis = track_update(
                 kf, row, np.float64(progress), np.float64(along), v_meas, c.speed_sigma_mps
             )

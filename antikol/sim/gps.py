@@ -84,6 +84,9 @@ class GpsModel:
     tunnel_dropout, tunnel_reacquire_s, rate_hz, speed_sigma_mps, course_sigma_deg,
     course_hold_speed_mps
         As above (metres, seconds, probabilities per fix, Hz, m/s, degrees).
+    fix_quality : int or None
+        GGA fix quality the receiver reports with every fix (``None``: not reported), e.g.
+        ``4`` for an RTK receiver.
     """
 
     sigma_m: float = 3.0
@@ -98,6 +101,7 @@ class GpsModel:
     speed_sigma_mps: float = 0.1
     course_sigma_deg: float = 2.0
     course_hold_speed_mps: float = 0.5
+    fix_quality: int | None = None
 
     def __post_init__(self) -> None:
         check_fields(
@@ -132,13 +136,17 @@ class GpsModel:
 
     @classmethod
     def exact(cls, *, rate_hz: float = 1.0) -> GpsModel:
-        """A perfect receiver: no noise, no bias, no missing fixes (tunnels still drop)."""
+        """A perfect receiver: no noise, no bias, no missing fixes (tunnels still drop).
+
+        It reports fix quality 4 (RTK fixed): a receiver that good says so.
+        """
         return cls(
             sigma_m=0.0,
             bias_sigma_m=0.0,
             speed_sigma_mps=0.0,
             course_sigma_deg=0.0,
             rate_hz=rate_hz,
+            fix_quality=4,
         )
 
 
@@ -381,7 +389,8 @@ def observe(
         true_course_deg=(np.degrees(theta) + conv) % 360.0,
         course_deg=course,
     )
-    reports = make_reports(spec, net, ep, idx, mx, my, speed, course)
+    quality = None if gps.fix_quality is None else np.full(len(ep.t_s), gps.fix_quality)
+    reports = make_reports(spec, net, ep, idx, mx, my, speed, course, fix_quality=quality)
     return reports, log
 
 
