@@ -344,6 +344,8 @@ def evaluate_fixes(
         batch = reports[i:j]
         estimates = pos.update_many(batch)
         for r, est in zip(batch, estimates, strict=True):
+            if _antenna_before_route(result, specs[r.vehicle_id], r.t):
+                continue  # the truth has no track position for it: nothing to judge
             rows.append(
                 _judge(
                     net,
@@ -363,6 +365,12 @@ def evaluate_fixes(
     ys = np.array([row.pop("true_y") for row in rows])
     double = on_double_track(net, xs, ys)
     return [FixEvaluation(double_track=bool(double[k]), **row) for k, row in enumerate(rows)]
+
+
+def _antenna_before_route(result: SimulationResult, spec: Any, t: float) -> bool:
+    """A tram's first metres: its antenna is still behind the start of its route."""
+    truth = result.truth[spec.vehicle_id]
+    return float(truth.distance_m[truth.index_at(t)]) < spec.antenna_m
 
 
 def _judge(

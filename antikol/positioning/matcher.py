@@ -299,9 +299,16 @@ class Positioner:
         prev_t = self._f.t[rows]
         has_prev = np.isfinite(prev_t)
         dt = np.where(has_prev, t - prev_t, 1.0)
+        # the displacement counts from the last position fix (reports without one may
+        # have come in between)
+        dt_fix = np.where(np.isfinite(self._f.t_fix[rows]), t - self._f.t_fix[rows], dt)
         moved = np.hypot(xs - self._f.x[rows], ys - self._f.y[rows])
         prev_v = self._f.v[rows]
-        reach = np.maximum(speed, prev_v) * dt + 0.5 * c.max_accel_mps2 * dt * dt
+        reach = (
+            np.maximum(speed, prev_v) * dt_fix
+            + 0.5 * c.max_accel_mps2 * dt_fix * dt_fix
+            + c.max_speed_mps * np.maximum(dt_fix - dt, 0.0)
+        )
         jump = has_prev & ~no_fix & np.isfinite(moved) & (moved > reach + c.jump_margin_m)
         accel = has_prev & (np.abs(speed - prev_v) > c.max_accel_mps2 * dt + 2.0)
         out[jump] = "jump"
@@ -328,23 +335,63 @@ class Positioner:
                 np.float64(travelled),
                 self.config.odometer_sigma_fraction,
             )
-        # carry every hypothesis along its most probable path, so the next fix is near
-        for k in np.flatnonzero(self._f.hs[row] >= 0):
-            s = int(self._f.hs[row, k])
-            edge, off, d = self._advance(
-                s >> 1,
-                float(self._f.ho[row, k]),
-                1 - 2 * (s & 1),
-                travelled,
-                report,
-                wrong=not bool(self.reach.allowed[s]),
-            )
-            self._f.hs[row, k] = state_id(edge, d)
-            self._f.ho[row, k] = off
-            self._f.hg[row, k] += travelled
+        self._carry(row, travelled, report.route)
         self._f.z[row] += travelled
         self._f.odo[row] = odometer
         self._f.t[row] = report.t
+        self._f.v[row] = report.speed_mps  # the wheel speed: the next physics check needs it
+
+    def _carry(self, row: int, travelled_m: float, route: tuple[int, ...] | None) -> None:
+        """Move every hypothesis of a vehicle ``travelled_m`` along the track (odometer dead
+        reckoning). Where the track branches, each branch becomes a hypothesis of its own
+        (equally likely, or the planned route's): the next fix decides."""
+        f = self._f
+        slots = np.flatnonzero(f.hs[row] >= 0)
+        grown: list[tuple[float, int, float, int]] = []  # log-p, state, offset, parent slot
+        for k in slots.tolist():
+            s = int(f.hs[row, k])
+            edge, off, d = s >> 1, float(f.ho[row, k]), 1 - 2 * (s & 1)
+            moved = off + d * travelled_m
+            length = float(self.reach.lengths[edge])
+            if 0.0 <= moved <= length or travelled_m < 1e-6:
+                grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
+                continue
+            paths = self.net.paths_ahead(
+                edge,
+                off,
+                d,
+                travelled_m,
+                respect_direction=bool(self.reach.allowed[s]),
+                max_paths=MAX_PATHS_SEARCH,
+            )
+            if route and paths:
+                paths = [_preferred_path(paths, route)]
+            if not paths:
+                grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
+                continue
+            share = math.log(1.0 / len(paths))
+            for p in paths:
+                last = p.steps[-1]
+                sid = int(state_id(last.edge_id, last.direction))
+                grown.append((float(f.hp[row, k]) + share, sid, last.exit_offset_m, k))
+        if not grown:
+            return
+        first = max((g for g in grown if g[3] == 0), key=lambda g: g[0], default=None)
+        rest = sorted((g for g in grown if g is not first), key=lambda g: -g[0])
+        kept = ([first] if first is not None else []) + rest
+        kept = kept[: self._k]
+        parents = np.array([g[3] for g in kept])
+        cols = {name: getattr(f, name)[row, parents].copy() for name in _SLOT_FIELDS}
+        f.hs[row] = -1
+        f.hp[row] = _NEG_INF
+        m = len(kept)
+        f.hs[row, :m] = [g[1] for g in kept]
+        for name, values in cols.items():
+            getattr(f, name)[row, :m] = values
+        f.ho[row, :m] = [g[2] for g in kept]
+        lp = np.array([g[0] for g in kept])
+        f.hp[row, :m] = lp - np.logaddexp.reduce(lp)
+        f.hg[row, :m] += travelled_m
 
     def _last_report(self, row: int, report: VehicleReport) -> None:
         self._f.last[row] = report
