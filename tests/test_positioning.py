@@ -145,3 +145,31 @@ def test_state_is_serialisable_and_restorable(straight):
     other = Positioner(straight)
     other.restore("V", state)
     assert other.position("V", 8.0) == pos.position("V", 8.0)
+
+
+def test_a_turning_loop_is_followed_onto_the_track_it_leads_to():
+    """Where a turning loop closes, its start and end lie metres apart: a fix there belongs
+    to either. Kraków's loop (edge 1014) takes trams from the northbound track 582 back
+    onto the southbound 1015; the matcher must follow it onto 1015, not run wrong way on
+    582."""
+    from antikol.sim import GpsModel, Simulator, TramSpec
+    from antikol.sim.route_building import route_from_edges
+
+    net = trackmap.load_default()
+    loop = net.edges[1014]
+    assert (
+        net.edges[582].end_node == loop.start_node and loop.end_node == net.edges[1015].start_node
+    )
+    route = route_from_edges(net, [582, 1014, 1015], start_offset_m=700.0, end_offset_m=400.0)
+    for seed in range(3):
+        spec = TramSpec("L", route, initial_speed_mps=8.0, stops=())
+        result = Simulator(net, [spec], gps=GpsModel(sigma_m=2.0, bias_sigma_m=1.5), seed=seed).run(
+            200.0
+        )
+        pos = Positioner(net)
+        out = [pos.update(r) for r in sorted(result.reports, key=lambda r: r.t)]
+        after = [p for p in out if p.edge_id == 1015 or (p.edge_id == 582 and p.direction == -1)]
+        assert after, "the tram must leave the loop within the run"
+        wrong = [p for p in after if p.edge_id == 582]
+        assert not wrong, f"seed {seed}: {len(wrong)} fixes running wrong way on 582"
+        assert all(not p.wrong_way for p in out)
