@@ -7,6 +7,7 @@ plus a lateral bias that persists, towards the neighbouring track where there is
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -73,9 +74,7 @@ def feed(net, *streams, config=None):
 
 def toggles(states: dict[float, dict[str, antikol.Assessment]], vid: str) -> int:
     lamp = [a[vid].lamp for _, a in sorted(states.items()) if vid in a]
-    return sum(1 for x, y in zip(lamp, lamp[1:], strict=False) if x != y) + int(
-        bool(lamp and lamp[0])
-    )
+    return sum(1 for x, y in itertools.pairwise(lamp) if x != y) + int(bool(lamp and lamp[0]))
 
 
 @pytest.fixture(scope="module")
@@ -208,7 +207,7 @@ def test_a_tram_standing_before_a_merge_is_a_possible_conflict(merge_map):
     t = np.arange(0.0, 40.0)
     rng = np.random.default_rng(5)
     # B stands 45 m before the merge, starts at t = 16 s and accelerates at 1 m/s²
-    branch_len = sum(math.dist(p, q) for p, q in zip(BRANCH[:4], BRANCH[1:5], strict=True))
+    branch_len = sum(math.dist(p, q) for p, q in itertools.pairwise(BRANCH[:5]))
     vb = np.clip(t - 16.0, 0.0, 8.0)
     b = noisy_along("B", BRANCH, start_m=branch_len - 45.0, speeds=vb, t=t, rng=rng, length_m=30.0)
     a = noisy_along(
