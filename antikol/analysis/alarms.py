@@ -83,6 +83,7 @@ class AlarmBook:
     policy: AlarmPolicy = field(default_factory=AlarmPolicy)
     toggles: Counter[str] = field(default_factory=Counter)
     _pairs: dict[tuple[str, str], PairAlarm] = field(default_factory=dict)
+    _on: dict[str, set[str]] = field(default_factory=dict)  # own -> others with the alarm on
 
     def step(self, own: str, other: str, t: float, *, raise_now: bool, hold: bool) -> bool:
         """Advance one pair's alarm to time ``t`` (s); returns whether it is on.
@@ -111,6 +112,7 @@ class AlarmBook:
             if not state.on:
                 state.on, state.since = True, t
                 self.toggles[own] += 1
+                self._on.setdefault(own, set()).add(other)
             return True
         quiet = t - state.last_seen
         if (
@@ -121,6 +123,7 @@ class AlarmBook:
         ):
             state.on = False
             self.toggles[own] += 1
+            self._on.get(own, set()).discard(other)
         return state.on
 
     def is_on(self, own: str, other: str) -> bool:
@@ -130,12 +133,15 @@ class AlarmBook:
 
     def active(self, own: str) -> list[str]:
         """The other vehicles whose alarm is on for ``own``."""
-        return [o for (a, o), s in self._pairs.items() if a == own and s.on]
+        return sorted(self._on.get(own, ()))
 
     def forget(self, vehicle_id: str) -> None:
         """Drop every pair of a vehicle (it left the table)."""
         for key in [k for k in self._pairs if vehicle_id in k]:
             del self._pairs[key]
+        self._on.pop(vehicle_id, None)
+        for others in self._on.values():
+            others.discard(vehicle_id)
 
     def prune(self, t: float) -> None:
         """Drop pairs that are off and have not been evaluated for ``forget_s``."""

@@ -47,6 +47,7 @@ from antikol.analysis.geometry import closing_speed_mps
 from antikol.analysis.profiles import BrakingProfile, load_profile
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
 from antikol.analysis.views import (
+    ConflictApproach,
     CycleViews,
     HypothesisView,
     VehicleView,
@@ -293,6 +294,7 @@ class Analyser:
         self._nmea: NmeaReader | None = None
         self._last_threats: dict[tuple[str, str], Threat] = {}
         self._moving: dict[str, bool] = {}
+        self._pending: list[VehicleReport] = []
 
     # -- input ---------------------------------------------------------------------------
     def update(self, report: VehicleReport) -> TableUpdate:
@@ -306,22 +308,31 @@ class Analyser:
         return self.update_many([report])[0]
 
     def update_many(self, reports: Sequence[VehicleReport]) -> list[TableUpdate]:
-        """Feed many reports at once (one analysis cycle of a fleet); positions are matched
-        with one vectorised update. One report the positioning cannot use never stops the
-        others: it is counted in :attr:`stats` and the vehicle keeps its previous state."""
+        """Feed many reports at once (one analysis cycle of a fleet).
+
+        Positioning runs lazily: the reports accepted by the table are matched to the map
+        together, in one vectorised update, when a position or an assessment is next asked
+        for. One report the positioning cannot use never stops the others: it is counted
+        in :attr:`stats` and the vehicle keeps its previous state."""
         results = [self._table_update(r) for r in reports]
         if self.positioner is not None:
-            accepted = [r for r, res in zip(reports, results, strict=True) if res.accepted]
-            try:
-                self.positioner.update_many(accepted, outputs=False)
-            except Exception:  # one at a time, to find and count the culprit
-                for r in accepted:
-                    try:
-                        self.positioner.update_many([r], outputs=False)
-                    except Exception:
-                        self.stats["positioning_error"] += 1
-                        logger.exception("positioning failed on a report of %s", r.vehicle_id)
+            self._pending.extend(r for r, res in zip(reports, results, strict=True) if res.accepted)
         return results
+
+    def _flush(self) -> None:
+        """Position the reports received since the last query."""
+        if not self._pending or self.positioner is None:
+            return
+        pending, self._pending = self._pending, []
+        try:
+            self.positioner.update_many(pending, outputs=False)
+        except Exception:  # one at a time, to find and count the culprit
+            for r in pending:
+                try:
+                    self.positioner.update_many([r], outputs=False)
+                except Exception:
+                    self.stats["positioning_error"] += 1
+                    logger.exception("positioning failed on a report of %s", r.vehicle_id)
 
     def feed_bytes(self, chunk: bytes) -> list[TableUpdate]:
         """Feed raw radio bytes (any chunking); decoded reports update the analyser.
@@ -355,6 +366,7 @@ class Analyser:
         if self.positioner is None:
             raise InvalidArgumentError("track_map", None, "discrete fixes need a track map")
         self._version += 1
+        self._flush()
         return self.positioner.fix(vehicle_id, fix)
 
     def _table_update(self, report: VehicleReport) -> TableUpdate:
@@ -372,6 +384,8 @@ class Analyser:
         return result
 
     def _forget(self, vehicle_id: str) -> None:
+        if any(r.vehicle_id == vehicle_id for r in self._pending):
+            self._pending = [r for r in self._pending if r.vehicle_id != vehicle_id]
         self.courses.forget(vehicle_id)
         self._moving.pop(vehicle_id, None)
         if self.positioner is not None:
@@ -394,6 +408,7 @@ class Analyser:
         """
         if self.positioner is None or vehicle_id not in self.table:
             return None
+        self._flush()
         return self.positioner.position(vehicle_id, self.table.clock if t is None else t)
 
     def assess_all(self, *, t: float | None = None) -> dict[str, Assessment]:
@@ -541,7 +556,7 @@ class Analyser:
         f = result.finding
         if own.position is None or other.position is None:  # pragma: no cover - matched
             raise RuntimeError("track threat without positions")
-        detail = f.detail
+        detail = f"{f.detail} (zone {f.zone})"
         if result.ambiguous:
             detail += f" (conflict probability {result.probability:.2f})"
         return Threat(
@@ -635,6 +650,7 @@ class Analyser:
             return cycle
         if self.positioner is None or self.track_map is None:  # pragma: no cover - guarded
             raise RuntimeError("views need a map")
+        self._flush()
         reports = list(self.table)
         positions = [self.positioner.position(r.vehicle_id, now) for r in reports]
         cycle = build_views(
@@ -660,8 +676,7 @@ class Analyser:
                     for entry in cycle.by_edge.get(s.edge_id, ()):
                         found.add(entry.vehicle_id)
                 for cp in p.conflicts:
-                    for centry in cycle.by_conflict.get(cp.conflict_id, ()):
-                        found.add(centry.vehicle_id)
+                    found.update(cycle.by_conflict.get(cp.conflict_id, ()))
         found.discard(view.vehicle_id)
         return found
 
@@ -669,48 +684,50 @@ class Analyser:
     def _pair(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> _PairResult | None:
         """Every conflict of a pair over both vehicles' hypotheses and the own zones."""
         c = self.config
-        alarm_weight = 0.0
-        emergency_weight = 0.0
-        any_weight = 0.0
+        alarm_weight = emergency_weight = any_weight = hold_weight = 0.0
         worst: Finding | None = None
         worst_alarm: Finding | None = None
-        hold_weight = 0.0
-        release_on = c.alarms
         for h in own.hyps:
             for g_idx, g in enumerate(other.hyps):
                 w = h.probability * g.probability
                 trusted = h.trusted and g.trusted
-                for p_idx, path in enumerate(h.paths):
-                    pi = h.path_probability[p_idx]
-                    findings = self._path_findings(cycle, own, h, path, other, g_idx, g)
-                    best_alarm = 0.0
-                    best_emergency = 0.0
-                    best_any = 0.0
-                    best_hold = 0.0
-                    for f, weight in findings:
-                        if not trusted and f.level in _ALARM_LEVELS:
-                            f = replace(f, level="advisory", detail=f.detail + " (unconfirmed)")
-                        if worst is None or _severity(f) > _severity(worst):
-                            worst = f
-                        best_any = max(best_any, weight)
-                        if f.level == "emergency":
-                            best_emergency = max(best_emergency, weight)
-                        if f.level in _ALARM_LEVELS:
-                            best_alarm = max(best_alarm, weight)
-                            if worst_alarm is None or _severity(f) > _severity(worst_alarm):
-                                worst_alarm = f
-                        if (
-                            trusted
-                            and f.closing_mps > c.closing_speed_mps
-                            and f.margin_m
-                            <= release_on.release_margin_m
-                            + release_on.release_time_s * f.closing_mps
-                        ):
-                            best_hold = max(best_hold, weight)
-                    hold_weight += w * pi * best_hold
-                    alarm_weight += w * pi * best_alarm
-                    emergency_weight += w * pi * best_emergency
-                    any_weight += w * pi * best_any
+                located = self._located(h, g)
+                relevant = self._relevant(cycle, h, other.vehicle_id)
+                if not located and not relevant:
+                    continue
+                shared: dict[int, _Summary] = {}
+                for p_idx, pi in enumerate(h.path_probability):
+                    path = h.paths[p_idx]
+                    at = located.get(p_idx)
+                    if at is not None:
+                        found = on_path(own, path, at[0], other, at[1], self._rules)
+                        summary = self._summarise([] if found is None else [(found, 1.0)], trusted)
+                    else:
+                        ways = [k for k in h.path_approaches[p_idx] if k in relevant]
+                        if not ways:
+                            continue
+                        summary = _Summary()
+                        for k in ways:
+                            part = shared.get(k)
+                            if part is None:
+                                found_at = self._approach_findings(
+                                    cycle, own, h.approaches[k], other, g_idx
+                                )
+                                part = shared[k] = self._summarise(found_at, trusted)
+                            summary.add(part)
+                    if summary.worst is None:
+                        continue
+                    if worst is None or _severity(summary.worst) > _severity(worst):
+                        worst = _in_zone(summary.worst, path)
+                    if summary.worst_alarm is not None and (
+                        worst_alarm is None
+                        or _severity(summary.worst_alarm) > _severity(worst_alarm)
+                    ):
+                        worst_alarm = _in_zone(summary.worst_alarm, path)
+                    hold_weight += w * pi * summary.hold
+                    alarm_weight += w * pi * summary.alarm
+                    emergency_weight += w * pi * summary.emergency
+                    any_weight += w * pi * summary.any
         if worst is None:
             return None
         # an alarm is held by the conflicts that keep closing in, as probable as it takes
@@ -727,52 +744,86 @@ class Analyser:
         level: Level = "advisory" if worst.level != "none" else "none"
         return _PairResult(level, replace(worst, level=level), any_weight, hold, ambiguous)
 
-    def _path_findings(
+    @staticmethod
+    def _relevant(cycle: CycleViews, h: HypothesisView, other_id: str) -> set[int]:
+        """The own approaches to conflict points the other vehicle also passes."""
+        return {
+            k
+            for k, ap in enumerate(h.approaches)
+            if other_id in cycle.by_conflict.get(ap.conflict_id, ())
+        }
+
+    @staticmethod
+    def _located(h: HypothesisView, g: HypothesisView) -> dict[int, tuple[float, bool]]:
+        """The own paths the other hypothesis stands on: distance to its antenna (m) and
+        whether it runs the same way."""
+        out: dict[int, tuple[float, bool]] = {}
+        for p_idx, step in h.edge_steps.get(g.edge_id, ()):
+            if p_idx in out:
+                continue
+            d = step.distance_to(g.offset_m)
+            if d is not None:
+                out[p_idx] = (d, step.direction == g.direction)
+        return out
+
+    def _summarise(self, findings: list[tuple[Finding, float]], trusted: bool) -> _Summary:
+        """What the pair's decision needs of some findings: the most probable of each kind
+        and the most severe (the first of equals)."""
+        c = self.config
+        release = c.alarms
+        summary = _Summary()
+        for f, weight in findings:
+            if not trusted and f.level in _ALARM_LEVELS:
+                f = replace(f, level="advisory", detail=f.detail + " (unconfirmed)")
+            if summary.worst is None or _severity(f) > _severity(summary.worst):
+                summary.worst = f
+            summary.any = max(summary.any, weight)
+            if f.level == "emergency":
+                summary.emergency = max(summary.emergency, weight)
+            if f.level in _ALARM_LEVELS:
+                summary.alarm = max(summary.alarm, weight)
+                if summary.worst_alarm is None or _severity(f) > _severity(summary.worst_alarm):
+                    summary.worst_alarm = f
+            if (
+                trusted
+                and f.closing_mps > c.closing_speed_mps
+                and f.margin_m <= release.release_margin_m + release.release_time_s * f.closing_mps
+            ):
+                summary.hold = max(summary.hold, weight)
+        return summary
+
+    def _approach_findings(
         self,
         cycle: CycleViews,
         own: VehicleView,
-        h: HypothesisView,
-        path: Path,
+        approach: ConflictApproach,
         other: VehicleView,
         g_idx: int,
-        g: HypothesisView,
     ) -> list[tuple[Finding, float]]:
-        """Conflicts of one own path with one hypothesis of the other vehicle, each with the
-        probability that the other takes the path that makes it (1 when it stands on ours)."""
-        out: list[tuple[Finding, float]] = []
-        located = path.locate_step(g.edge_id, g.offset_m)
-        if located is not None:
-            d, step = located
-            same_way = step.direction == g.direction
-            found = on_path(own, path, d, other, same_way, self._rules)
-            if found is not None:
-                out.append((found, 1.0))
-            return out
+        """Findings of one own approach to a conflict point against the other's ways
+        through it (zone left empty), each with the probability of the other's way."""
         if self.track_map is None:  # pragma: no cover - guarded by the caller
-            return out
-        for cp in path.conflicts:
-            entries = cycle.by_conflict.get(cp.conflict_id, ())
-            node = next((n for n in path.nodes if abs(n.distance_m - cp.distance_m) < 1e-6), None)
-            frm = node.from_edge if node is not None else cp.edge_id
-            to = node.to_edge if node is not None else cp.edge_id
-            conflict = self.track_map.conflicts[cp.conflict_id]
-            for entry in entries:
-                if entry.vehicle_id != other.vehicle_id or entry.hyp != g_idx:
-                    continue
-                found = at_conflict(
-                    own,
-                    path,
-                    conflict,
-                    cp.distance_m,
-                    frm,
-                    to,
-                    other,
-                    entry,
-                    self._rules,
-                    self._profile(other.vehicle_id).traction_mps2,
-                )
-                if found is not None:
-                    out.append((found, g.path_probability[entry.path]))
+            return []
+        entries = cycle.by_conflict.get(approach.conflict_id, {}).get(other.vehicle_id, ())
+        out = []
+        conflict = self.track_map.conflicts[approach.conflict_id]
+        accel = self._profile(other.vehicle_id).traction_mps2
+        for entry in entries:
+            if entry.hyp != g_idx:
+                continue
+            found = at_conflict(
+                own,
+                conflict,
+                approach.distance_m,
+                approach.from_edge,
+                approach.to_edge,
+                other,
+                entry,
+                self._rules,
+                accel,
+            )
+            if found is not None:
+                out.append((found, entry.probability))
         return out
 
     def _suppression_reason(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> str:
@@ -784,11 +835,10 @@ class Analyser:
             if (a in own_edges and b in oth_edges) or (b in own_edges and a in oth_edges):
                 return "grade_separated"
         shared = any(
-            entry.vehicle_id == other.vehicle_id
+            other.vehicle_id in cycle.by_conflict.get(cp.conflict_id, {})
             for h in own.hyps
             for p in h.paths
             for cp in p.conflicts
-            for entry in cycle.by_conflict.get(cp.conflict_id, ())
         )
         if shared:
             return "no_overlap"
@@ -800,6 +850,38 @@ class Analyser:
             if near <= self.config.parallel_distance_m:
                 return "parallel_track"
         return "not_reachable"
+
+
+@dataclass(slots=True)
+class _Summary:
+    """The most probable findings of each kind (weights) and the most severe ones."""
+
+    any: float = 0.0
+    alarm: float = 0.0
+    emergency: float = 0.0
+    hold: float = 0.0
+    worst: Finding | None = None
+    worst_alarm: Finding | None = None
+
+    def add(self, later: _Summary) -> None:
+        """Follow this summary by another (ties of severity keep the earlier)."""
+        if later.worst is None:
+            return
+        self.any = max(self.any, later.any)
+        self.alarm = max(self.alarm, later.alarm)
+        self.emergency = max(self.emergency, later.emergency)
+        self.hold = max(self.hold, later.hold)
+        if self.worst is None or _severity(later.worst) > _severity(self.worst):
+            self.worst = later.worst
+        if later.worst_alarm is not None and (
+            self.worst_alarm is None or _severity(later.worst_alarm) > _severity(self.worst_alarm)
+        ):
+            self.worst_alarm = later.worst_alarm
+
+
+def _in_zone(f: Finding, path: Path) -> Finding:
+    """A finding of a path, labelled with the path's zone."""
+    return f if f.zone == path.zone else replace(f, zone=path.zone)
 
 
 def _severity(f: Finding) -> tuple[int, float]:

@@ -32,7 +32,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from antikol.analysis.views import ConflictEntry, HypothesisView, VehicleView
+from antikol.analysis.views import ConflictApproach, ConflictEntry, HypothesisView, VehicleView
 from antikol.kinds import Level, ThreatKind
 from trackmap import ConflictPoint, Path, PathStep
 
@@ -178,7 +178,7 @@ def on_path(
         closing,
         _ttc(gap, closing),
         path.zone,
-        f"{other.vehicle_id} {what} at {gap:.0f} m (zone {path.zone})",
+        f"{other.vehicle_id} {what} at {gap:.0f} m",
     )
 
 
@@ -241,13 +241,12 @@ def _approach(
 
 def at_conflict(
     own: VehicleView,
-    path: Path,
     conflict: ConflictPoint,
     own_distance_m: float,
     own_from: int,
     own_to: int,
     other: VehicleView,
-    entry: ConflictEntry,
+    entry: ConflictEntry | ConflictApproach,
     rules: RuleSettings,
     other_profile_accel_mps2: float,
 ) -> Finding | None:
@@ -256,8 +255,6 @@ def at_conflict(
     Parameters
     ----------
     own : VehicleView
-    path : Path
-        The own path through the conflict point.
     conflict : ConflictPoint
     own_distance_m : float
         From the own antenna to the point, m.
@@ -274,8 +271,10 @@ def at_conflict(
     Returns
     -------
     Finding or None
-        None when the paths meet on the same track (a rear-end or head-on case), when the
-        own vehicle has passed the point, or when the other cannot be there in time.
+        Its ``zone`` is left empty: every own path through the point shares the finding
+        (:func:`dataclasses.replace` sets the zone). None when the paths meet on the same
+        track (a rear-end or head-on case), when the own vehicle has passed the point, or
+        when the other cannot be there in time.
     """
     if conflict.kind == "merge":
         branches = set(conflict.edges[1:])
@@ -325,9 +324,8 @@ def at_conflict(
         gap_eff - own.warning_m,
         closing,
         None if standing else _ttc(gap, closing),
-        path.zone,
-        f"{other.vehicle_id} can reach the same {where} (we are {gap:.0f} m away, "
-        f"zone {path.zone})",
+        "",
+        f"{other.vehicle_id} can reach the same {where} (we are {gap:.0f} m away)",
     )
 
 

@@ -22,9 +22,10 @@ from antikol.analysis.ends import VehicleEnds, vehicle_ends
 from antikol.analysis.profiles import BrakingProfile
 from antikol.positioning.records import TrackPosition
 from antikol.report import VehicleReport
-from trackmap import NodePass, Path, TrackMap
+from trackmap import NodePass, Path, PathStep, TrackMap
 
 __all__ = [
+    "ConflictApproach",
     "ConflictEntry",
     "CycleViews",
     "EdgeEntry",
@@ -48,6 +49,25 @@ class ViewSettings:
 
 
 @dataclass(frozen=True, slots=True)
+class ConflictApproach:
+    """One way through a conflict point: the paths of a hypothesis that take it share it.
+
+    Attributes
+    ----------
+    conflict_id : int
+    distance_m : float
+        From the antenna to the conflict point along the paths, m.
+    from_edge, to_edge : int
+        The edges the paths arrive on and leave by.
+    """
+
+    conflict_id: int
+    distance_m: float
+    from_edge: int
+    to_edge: int
+
+
+@dataclass(frozen=True, slots=True)
 class HypothesisView:
     """One place a vehicle may be, with the paths ahead of it.
 
@@ -68,6 +88,12 @@ class HypothesisView:
         Probability of taking each path (from the planned route, or the options at every
         facing switch that the vehicle can still take at its speed, see
         :mod:`antikol.analysis.branches`).
+    approaches : tuple of ConflictApproach
+        The distinct ways the paths pass conflict points.
+    path_approaches : tuple of tuple of int
+        For each path, the indices of its approaches in running order.
+    edge_steps : dict of int to tuple
+        For each edge the paths pass, the (path index, step) pairs, in path order.
     """
 
     edge_id: int
@@ -78,6 +104,9 @@ class HypothesisView:
     trusted: bool
     paths: tuple[Path, ...]
     path_probability: tuple[float, ...]
+    approaches: tuple[ConflictApproach, ...] = ()
+    path_approaches: tuple[tuple[int, ...], ...] = ()
+    edge_steps: dict[int, tuple[tuple[int, PathStep], ...]] = field(default_factory=dict)
 
 
 @dataclass(slots=True)
@@ -134,25 +163,28 @@ class EdgeEntry:
 
 @dataclass(frozen=True, slots=True)
 class ConflictEntry:
-    """A path passing a conflict point.
+    """A vehicle's hypothesis passing a conflict point one way.
 
     Attributes
     ----------
     vehicle_id : str
-    hyp, path : int
-        Indices of the hypothesis and of its path.
+    hyp : int
+        Index of the hypothesis.
     distance_m : float
-        From the antenna to the conflict point along the path, m.
+        From the antenna to the conflict point along its paths, m.
     from_edge, to_edge : int
-        The edges the path arrives on and leaves by.
+        The edges the paths arrive on and leave by.
+    probability : float
+        Probability that the vehicle takes this way (the most probable of its paths
+        through the point that way).
     """
 
     vehicle_id: str
     hyp: int
-    path: int
     distance_m: float
     from_edge: int
     to_edge: int
+    probability: float
 
 
 @dataclass(slots=True)
@@ -162,7 +194,8 @@ class CycleViews:
     t: float
     views: dict[str, VehicleView] = field(default_factory=dict)
     by_edge: dict[int, list[EdgeEntry]] = field(default_factory=dict)
-    by_conflict: dict[int, list[ConflictEntry]] = field(default_factory=dict)
+    #: conflict point -> vehicle -> the paths of that vehicle passing it
+    by_conflict: dict[int, dict[str, list[ConflictEntry]]] = field(default_factory=dict)
 
 
 def build_views(
@@ -200,7 +233,7 @@ def build_views(
     """
     cycle = CycleViews(t)
     by_edge: dict[int, list[EdgeEntry]] = defaultdict(list)
-    by_conflict: dict[int, list[ConflictEntry]] = defaultdict(list)
+    by_conflict: dict[int, dict[str, list[ConflictEntry]]] = defaultdict(dict)
     speeds = np.array(
         [
             (pos.speed_mps if pos is not None and pos.matched else r.speed_mps)
@@ -231,19 +264,15 @@ def build_views(
             view.hyps = _hypotheses(net, branches, pos, view, settings)
             for h_idx, h in enumerate(view.hyps):
                 by_edge[h.edge_id].append(EdgeEntry(vid, h_idx))
-                for p_idx, p in enumerate(h.paths):
-                    for cp in p.conflicts:
-                        node = _node_at(p, cp.distance_m)
-                        by_conflict[cp.conflict_id].append(
-                            ConflictEntry(
-                                vid,
-                                h_idx,
-                                p_idx,
-                                cp.distance_m,
-                                node.from_edge if node is not None else cp.edge_id,
-                                node.to_edge if node is not None else cp.edge_id,
-                            )
-                        )
+                best: dict[int, float] = {}
+                for p_idx, ways in enumerate(h.path_approaches):
+                    for a in ways:
+                        best[a] = max(best.get(a, 0.0), h.path_probability[p_idx])
+                for a, prob in best.items():
+                    ap = h.approaches[a]
+                    by_conflict[ap.conflict_id].setdefault(vid, []).append(
+                        ConflictEntry(vid, h_idx, ap.distance_m, ap.from_edge, ap.to_edge, prob)
+                    )
         cycle.views[vid] = view
     cycle.by_edge = dict(by_edge)
     cycle.by_conflict = dict(by_conflict)
@@ -309,7 +338,45 @@ def _hypotheses(
             branches.path_probability(p, view.speed_mps, view.report.route) for p in paths
         )
         trusted = not h.wrong_way or h.wrong_way_s >= settings.wrong_way_evidence_s
+        approaches, path_approaches = _approaches(paths)
+        steps: dict[int, list[tuple[int, PathStep]]] = defaultdict(list)
+        for p_idx, p in enumerate(paths):
+            for step in p.steps:
+                steps[step.edge_id].append((p_idx, step))
         out.append(
-            HypothesisView(edge, d, off, h.probability / total, h.wrong_way, trusted, paths, probs)
+            HypothesisView(
+                edge,
+                d,
+                off,
+                h.probability / total,
+                h.wrong_way,
+                trusted,
+                paths,
+                probs,
+                approaches,
+                path_approaches,
+                {e: tuple(v) for e, v in steps.items()},
+            )
         )
     return out
+
+
+def _approaches(
+    paths: tuple[Path, ...],
+) -> tuple[tuple[ConflictApproach, ...], tuple[tuple[int, ...], ...]]:
+    """The distinct ways a hypothesis' paths pass conflict points, and each path's."""
+    index: dict[ConflictApproach, int] = {}
+    per_path = []
+    for p in paths:
+        mine = []
+        for cp in p.conflicts:
+            node = _node_at(p, cp.distance_m)
+            ap = ConflictApproach(
+                cp.conflict_id,
+                cp.distance_m,
+                node.from_edge if node is not None else cp.edge_id,
+                node.to_edge if node is not None else cp.edge_id,
+            )
+            mine.append(index.setdefault(ap, len(index)))
+        per_path.append(tuple(mine))
+    return tuple(index), tuple(per_path)
