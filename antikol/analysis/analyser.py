@@ -42,7 +42,15 @@ from antikol.analysis import braking
 from antikol.analysis.alarms import AlarmBook, AlarmPolicy
 from antikol.analysis.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
 from antikol.analysis.branches import BranchSettings
-from antikol.analysis.conflicts import Finding, RuleSettings, at_conflict, on_path
+from antikol.analysis.conflicts import (
+    Finding,
+    RuleSettings,
+    at_conflict,
+    conflict_kind,
+    earliest_arrival_s,
+    on_path,
+)
+from antikol.analysis.conflicts import approach as way_through
 from antikol.analysis.geometry import closing_speed_mps
 from antikol.analysis.profiles import BrakingProfile, load_profile
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
@@ -807,21 +815,30 @@ class Analyser:
         entries = cycle.by_conflict.get(approach.conflict_id, {}).get(other.vehicle_id, ())
         out = []
         conflict = self.track_map.conflicts[approach.conflict_id]
-        accel = self._profile(other.vehicle_id).traction_mps2
+        mine = cycle.ways.get((own.vehicle_id, approach))
+        if mine is None:
+            mine = cycle.ways[(own.vehicle_id, approach)] = way_through(
+                own, conflict, approach.distance_m, approach.from_edge, approach.to_edge
+            )
         for entry in entries:
             if entry.hyp != g_idx:
                 continue
-            found = at_conflict(
-                own,
-                conflict,
-                approach.distance_m,
-                approach.from_edge,
-                approach.to_edge,
-                other,
-                entry,
-                self._rules,
-                accel,
+            kind = conflict_kind(
+                conflict, approach.from_edge, approach.to_edge, entry.from_edge, entry.to_edge
             )
+            if kind is None:
+                continue
+            timed = cycle.arrivals.get(entry)
+            if timed is None:
+                theirs = way_through(
+                    other, conflict, entry.distance_m, entry.from_edge, entry.to_edge
+                )
+                traction = self._profile(other.vehicle_id).traction_mps2
+                timed = cycle.arrivals[entry] = (
+                    theirs,
+                    earliest_arrival_s(other, theirs, self._rules, traction),
+                )
+            found = at_conflict(own, kind, mine, other, timed[0], timed[1], self._rules)
             if found is not None:
                 out.append((found, entry.probability))
         return out

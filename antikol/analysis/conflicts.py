@@ -32,15 +32,19 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from antikol.analysis.views import ConflictApproach, ConflictEntry, HypothesisView, VehicleView
+from antikol.analysis.views import HypothesisView, VehicleView
 from antikol.kinds import Level, ThreatKind
 from trackmap import ConflictPoint, Path, PathStep
 
 __all__ = [
+    "Approach",
     "Finding",
     "RuleSettings",
+    "approach",
     "arrival_time_s",
     "at_conflict",
+    "conflict_kind",
+    "earliest_arrival_s",
     "on_path",
 ]
 
@@ -215,18 +219,43 @@ def arrival_time_s(
 
 
 @dataclass(frozen=True, slots=True)
-class _Approach:
-    """Where a vehicle meets a conflict area on its path, m from its front."""
+class Approach:
+    """Where a vehicle meets a conflict point's fouling area on its path, m from its front.
 
-    enter_m: float  # front reaches the fouling area
-    point_m: float  # front reaches the conflict point
-    clear_m: float  # rear leaves the fouling area
+    Attributes
+    ----------
+    enter_m : float
+        The front reaches the fouling area.
+    point_m : float
+        The front reaches the conflict point.
+    clear_m : float
+        The rear leaves the fouling area.
+    """
+
+    enter_m: float
+    point_m: float
+    clear_m: float
 
 
-def _approach(
+def approach(
     view: VehicleView, conflict: ConflictPoint, distance_m: float, frm: int, to: int
-) -> _Approach | None:
-    """The own fouling area of a conflict point along a path (None: same track as ...)."""
+) -> Approach:
+    """A vehicle's way through a conflict point's fouling area.
+
+    Parameters
+    ----------
+    view : VehicleView
+    conflict : ConflictPoint
+    distance_m : float
+        From the vehicle's antenna to the point along its path, m.
+    frm, to : int
+        Edges the path arrives on and leaves by (the fouling area of a merge lies on the
+        branches).
+
+    Returns
+    -------
+    Approach
+    """
     front = distance_m - view.ends.front_m
     if conflict.kind == "merge":
         branches = conflict.edges[1:]
@@ -236,68 +265,72 @@ def _approach(
     else:
         before = after = max(conflict.extents_m)
     length = view.ends.front_m + view.ends.rear_m
-    return _Approach(front - before, front, front + after + length)
+    return Approach(front - before, front, front + after + length)
+
+
+def earliest_arrival_s(
+    view: VehicleView, way: Approach, rules: RuleSettings, traction_mps2: float
+) -> float:
+    """The earliest a vehicle can reach a fouling area: accelerating from its speed
+    (standing or not) at the smaller of its traction and ``rules.merge_accel_mps2``, s."""
+    accel = min(rules.merge_accel_mps2, traction_mps2)
+    return arrival_time_s(
+        way.enter_m, view.speed_mps, accel, max(rules.merge_max_speed_mps, view.speed_mps)
+    )
+
+
+def conflict_kind(
+    conflict: ConflictPoint, own_from: int, own_to: int, other_from: int, other_to: int
+) -> ThreatKind | None:
+    """``merge`` or ``crossing`` when two ways through a conflict point come from different
+    tracks; None when they share one (a rear-end or head-on case)."""
+    if conflict.kind == "merge":
+        branches = set(conflict.edges[1:])
+        own_branch = {own_from, own_to} & branches
+        other_branch = {other_from, other_to} & branches
+        if not own_branch or not other_branch or own_branch == other_branch:
+            return None
+        return "merge"
+    if {own_from, own_to} & {other_from, other_to}:
+        return None  # the same line through the crossing
+    return "crossing"
 
 
 def at_conflict(
     own: VehicleView,
-    conflict: ConflictPoint,
-    own_distance_m: float,
-    own_from: int,
-    own_to: int,
+    kind: ThreatKind,
+    mine: Approach,
     other: VehicleView,
-    entry: ConflictEntry | ConflictApproach,
+    theirs: Approach,
+    other_arrival_s: float,
     rules: RuleSettings,
-    other_profile_accel_mps2: float,
 ) -> Finding | None:
     """Both paths reach the same conflict point from different tracks.
 
     Parameters
     ----------
     own : VehicleView
-    conflict : ConflictPoint
-    own_distance_m : float
-        From the own antenna to the point, m.
-    own_from, own_to : int
-        Edges the own path arrives on and leaves by.
+    kind : {"merge", "crossing"}
+        From :func:`conflict_kind`.
+    mine, theirs : Approach
+        The two ways through the fouling area (:func:`approach`).
     other : VehicleView
-    entry : ConflictEntry
-        The other's path through the same point.
+    other_arrival_s : float
+        The other's earliest arrival (:func:`earliest_arrival_s`), s.
     rules : RuleSettings
-    other_profile_accel_mps2 : float
-        The other vehicle's traction, m/s² (its earliest arrival uses the smaller of it and
-        ``rules.merge_accel_mps2``).
 
     Returns
     -------
     Finding or None
         Its ``zone`` is left empty: every own path through the point shares the finding
-        (:func:`dataclasses.replace` sets the zone). None when the paths meet on the same
-        track (a rear-end or head-on case), when the own vehicle has passed the point, or
-        when the other cannot be there in time.
+        (:func:`dataclasses.replace` sets the zone). None when the own vehicle has passed
+        the point, the other has cleared it, or the other cannot be there in time.
     """
-    if conflict.kind == "merge":
-        branches = set(conflict.edges[1:])
-        own_branch = {own_from, own_to} & branches
-        other_branch = {entry.from_edge, entry.to_edge} & branches
-        if not own_branch or not other_branch or own_branch == other_branch:
-            return None
-        kind: ThreatKind = "merge"
-    else:
-        if {own_from, own_to} & {entry.from_edge, entry.to_edge}:
-            return None  # the same line through the crossing
-        kind = "crossing"
-    mine = _approach(own, conflict, own_distance_m, own_from, own_to)
-    theirs = _approach(other, conflict, entry.distance_m, entry.from_edge, entry.to_edge)
-    if mine is None or theirs is None or mine.point_m < 0.0 or theirs.clear_m <= 0.0:
+    if mine.point_m < 0.0 or theirs.clear_m <= 0.0:
         return None  # we are past the point, or they have cleared it
     v_own = own.speed_mps
     standing = v_own < rules.standing_speed_mps
     own_clear_s = math.inf if standing else mine.clear_m / v_own
-    accel = min(rules.merge_accel_mps2, other_profile_accel_mps2)
-    other_arrival_s = arrival_time_s(
-        theirs.enter_m, other.speed_mps, accel, max(rules.merge_max_speed_mps, other.speed_mps)
-    )
     if other_arrival_s > own_clear_s + rules.window_slack_s:
         return None  # they cannot be there before we have cleared it
     if theirs.enter_m > 0.0 and not standing:
@@ -308,7 +341,7 @@ def at_conflict(
             else math.inf
         )
         if own_arrival_s > other_latest_s + rules.window_slack_s and math.isfinite(other_latest_s):
-            return None  # they will have cleared it before we get there
+            return None  # at their speed they will have cleared it before we get there
     gap = max(mine.enter_m, 0.0)
     sigma = math.hypot(own.sigma_m, other.sigma_m)
     closing = 0.0 if standing else v_own

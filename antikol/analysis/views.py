@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -196,6 +197,10 @@ class CycleViews:
     by_edge: dict[int, list[EdgeEntry]] = field(default_factory=dict)
     #: conflict point -> vehicle -> the paths of that vehicle passing it
     by_conflict: dict[int, dict[str, list[ConflictEntry]]] = field(default_factory=dict)
+    #: scratch of the pair evaluations of this time: each vehicle's way through a fouling
+    #: area, and each other vehicle's way with its earliest arrival there (s)
+    ways: dict[tuple[str, ConflictApproach], Any] = field(default_factory=dict)
+    arrivals: dict[ConflictEntry, tuple[Any, float]] = field(default_factory=dict)
 
 
 def build_views(
