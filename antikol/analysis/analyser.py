@@ -42,30 +42,16 @@ from antikol.analysis import braking
 from antikol.analysis.alarms import AlarmBook, AlarmPolicy
 from antikol.analysis.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
 from antikol.analysis.branches import BranchSettings
-from antikol.analysis.conflicts import (
-    Finding,
-    RuleSettings,
-    at_conflict,
-    conflict_kind,
-    earliest_arrival_s,
-    on_path,
-)
-from antikol.analysis.conflicts import approach as way_through
+from antikol.analysis.conflicts import RuleSettings
 from antikol.analysis.geometry import closing_speed_mps
+from antikol.analysis.pairs import PairEvaluator, PairOutcome, PairSettings
 from antikol.analysis.profiles import BrakingProfile, load_profile
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
-from antikol.analysis.views import (
-    ConflictApproach,
-    CycleViews,
-    HypothesisView,
-    VehicleView,
-    ViewSettings,
-    build_views,
-)
+from antikol.analysis.views import CycleViews, VehicleView, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
 from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, StreamDecoder
-from antikol.kinds import Level, Method, level_rank
+from antikol.kinds import Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import DiscreteFix, FixPoint, TrackPosition
@@ -194,17 +180,6 @@ class Zone:
     probability: float
 
 
-@dataclass(slots=True)
-class _PairResult:
-    """The outcome of one pair's evaluation."""
-
-    level: Level
-    finding: Finding
-    probability: float
-    hold: bool
-    ambiguous: bool
-
-
 class Analyser:
     """Collision-warning analyser for one own vehicle or a whole fleet.
 
@@ -291,6 +266,23 @@ class Analyser:
             c.window_slack_s,
             c.rear_end_model,
         )
+        self._pairs = (
+            PairEvaluator(
+                track_map,
+                self._rules,
+                PairSettings(
+                    c.warning_probability,
+                    c.emergency_probability,
+                    c.closing_speed_mps,
+                    c.alarms.release_margin_m,
+                    c.alarms.release_time_s,
+                ),
+            )
+            if track_map is not None
+            else None
+        )
+        self._outcomes: dict[str, dict[str, PairOutcome]] = {}
+        self._outcomes_of: tuple[CycleViews | None, set[str]] = (None, set())
         #: Alarm states of every pair (track method).
         self.alarms = AlarmBook(c.alarms)
         #: What went wrong with reports (counted, never raised).
@@ -472,7 +464,8 @@ class Analyser:
             threats.extend(self._released(vid, now, seen))
             return self._assessment(vid, now, threats, [], "sector")
         hit_by_id = {h.vehicle_id: h for h in hits}
-        for ovid in sorted(self._candidates(cycle, own_view) | set(hit_by_id)):
+        outcomes = self._pair_outcomes(cycle, vid)
+        for ovid in sorted(outcomes.keys() | hit_by_id.keys()):
             ov = cycle.views.get(ovid)
             if ov is None or now - ov.report.t > self.expiry_s:
                 continue
@@ -484,23 +477,17 @@ class Analyser:
                     threats.append(self._alarm(vid, ovid, now, th, raise_now=True, hold=False))
                     seen.add(ovid)
                 continue
-            result = self._pair(cycle, own_view, ov)
+            result = outcomes.get(ovid)
             if result is None:
                 if hit is not None:
                     reason = self._suppression_reason(cycle, own_view, ov)
                     suppressed.append(Suppressed(ovid, reason, hit.distance_m, hit.bearing_deg))
                 continue
+            raise_now = result.level in _ALARM_LEVELS
+            if result.level == "none" and not self._alarm_on(vid, ovid, now, result.hold):
+                continue  # nothing to show and no alarm to hold
             th = self._track_threat(own_view, ov, result)
-            threats.append(
-                self._alarm(
-                    vid,
-                    ovid,
-                    now,
-                    th,
-                    raise_now=result.level in _ALARM_LEVELS,
-                    hold=result.hold,
-                )
-            )
+            threats.append(self._alarm(vid, ovid, now, th, raise_now=raise_now, hold=result.hold))
             seen.add(ovid)
         threats.extend(self._released(vid, now, seen))
         shown = [th for th in threats if th.level != "none"]
@@ -545,6 +532,12 @@ class Analyser:
         self._last_threats[(own, other)] = threat
         return threat
 
+    def _alarm_on(self, own: str, other: str, t: float, hold: bool) -> bool:
+        """Step a pair without an alarm-level conflict; whether its alarm stays on."""
+        if not self.config.hysteresis:
+            return False
+        return self.alarms.step(own, other, t, raise_now=False, hold=hold)
+
     def _released(self, own: str, t: float, seen: set[str]) -> list[Threat]:
         """Alarms of pairs not evaluated this time: released once their minimum time is up,
         shown (held) until then."""
@@ -560,7 +553,7 @@ class Analyser:
                     out.append(replace(last, held=True))
         return out
 
-    def _track_threat(self, own: VehicleView, other: VehicleView, result: _PairResult) -> Threat:
+    def _track_threat(self, own: VehicleView, other: VehicleView, result: PairOutcome) -> Threat:
         f = result.finding
         if own.position is None or other.position is None:  # pragma: no cover - matched
             raise RuntimeError("track threat without positions")
@@ -674,174 +667,24 @@ class Analyser:
         self._cycle, self._cycle_version = cycle, self._version
         return cycle
 
-    @staticmethod
-    def _candidates(cycle: CycleViews, view: VehicleView) -> set[str]:
-        """Vehicles on the own paths or passing a conflict point on them."""
-        found: set[str] = set()
-        for h in view.hyps:
-            for p in h.paths:
-                for s in p.steps:
-                    for entry in cycle.by_edge.get(s.edge_id, ()):
-                        found.add(entry.vehicle_id)
-                for cp in p.conflicts:
-                    found.update(cycle.by_conflict.get(cp.conflict_id, ()))
-        found.discard(view.vehicle_id)
-        return found
+    def _pair_outcomes(self, cycle: CycleViews, vid: str) -> dict[str, PairOutcome]:
+        """The pairs of one own vehicle with a finding: on board the own vehicle's alone;
+        in a control room every vehicle's at the first question of a time (one vectorised
+        evaluation, see :mod:`antikol.analysis.pairs`)."""
+        if self._pairs is None:  # pragma: no cover - guarded by the caller
+            return {}
+        of_cycle, done = self._outcomes_of
+        if of_cycle is not cycle:
+            self._outcomes, done = {}, set()
+            self._outcomes_of = (cycle, done)
+        if vid not in done:
+            owners = None if self.own_id is None else (vid,)
+            self._outcomes.update(self._pairs.evaluate(cycle, self._traction, owners))
+            done.update(cycle.views if owners is None else owners)
+        return self._outcomes.get(vid, {})
 
-    # -- pairwise track analysis ---------------------------------------------------------
-    def _pair(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> _PairResult | None:
-        """Every conflict of a pair over both vehicles' hypotheses and the own zones."""
-        c = self.config
-        alarm_weight = emergency_weight = any_weight = hold_weight = 0.0
-        worst: Finding | None = None
-        worst_alarm: Finding | None = None
-        for h in own.hyps:
-            for g_idx, g in enumerate(other.hyps):
-                w = h.probability * g.probability
-                trusted = h.trusted and g.trusted
-                located = self._located(h, g)
-                relevant = self._relevant(cycle, h, other.vehicle_id)
-                if not located and not relevant:
-                    continue
-                shared: dict[int, _Summary] = {}
-                for p_idx, pi in enumerate(h.path_probability):
-                    path = h.paths[p_idx]
-                    at = located.get(p_idx)
-                    if at is not None:
-                        found = on_path(own, path, at[0], other, at[1], self._rules)
-                        summary = self._summarise([] if found is None else [(found, 1.0)], trusted)
-                    else:
-                        ways = [k for k in h.path_approaches[p_idx] if k in relevant]
-                        if not ways:
-                            continue
-                        summary = _Summary()
-                        for k in ways:
-                            part = shared.get(k)
-                            if part is None:
-                                found_at = self._approach_findings(
-                                    cycle, own, h.approaches[k], other, g_idx
-                                )
-                                part = shared[k] = self._summarise(found_at, trusted)
-                            summary.add(part)
-                    if summary.worst is None:
-                        continue
-                    if worst is None or _severity(summary.worst) > _severity(worst):
-                        worst = _in_zone(summary.worst, path)
-                    if summary.worst_alarm is not None and (
-                        worst_alarm is None
-                        or _severity(summary.worst_alarm) > _severity(worst_alarm)
-                    ):
-                        worst_alarm = _in_zone(summary.worst_alarm, path)
-                    hold_weight += w * pi * summary.hold
-                    alarm_weight += w * pi * summary.alarm
-                    emergency_weight += w * pi * summary.emergency
-                    any_weight += w * pi * summary.any
-        if worst is None:
-            return None
-        # an alarm is held by the conflicts that keep closing in, as probable as it takes
-        # to raise one
-        hold = hold_weight >= c.warning_probability
-        statuses = (own.position, other.position)
-        ambiguous = any_weight < 0.999 or any(
-            p is not None and p.status == "ambiguous" for p in statuses
-        )
-        if worst_alarm is not None and (
-            alarm_weight >= c.warning_probability or emergency_weight >= c.emergency_probability
-        ):
-            return _PairResult(worst_alarm.level, worst_alarm, alarm_weight, hold, ambiguous)
-        level: Level = "advisory" if worst.level != "none" else "none"
-        return _PairResult(level, replace(worst, level=level), any_weight, hold, ambiguous)
-
-    @staticmethod
-    def _relevant(cycle: CycleViews, h: HypothesisView, other_id: str) -> set[int]:
-        """The own approaches to conflict points the other vehicle also passes."""
-        return {
-            k
-            for k, ap in enumerate(h.approaches)
-            if other_id in cycle.by_conflict.get(ap.conflict_id, ())
-        }
-
-    @staticmethod
-    def _located(h: HypothesisView, g: HypothesisView) -> dict[int, tuple[float, bool]]:
-        """The own paths the other hypothesis stands on: distance to its antenna (m) and
-        whether it runs the same way."""
-        out: dict[int, tuple[float, bool]] = {}
-        for p_idx, step in h.edge_steps.get(g.edge_id, ()):
-            if p_idx in out:
-                continue
-            d = step.distance_to(g.offset_m)
-            if d is not None:
-                out[p_idx] = (d, step.direction == g.direction)
-        return out
-
-    def _summarise(self, findings: list[tuple[Finding, float]], trusted: bool) -> _Summary:
-        """What the pair's decision needs of some findings: the most probable of each kind
-        and the most severe (the first of equals)."""
-        c = self.config
-        release = c.alarms
-        summary = _Summary()
-        for f, weight in findings:
-            if not trusted and f.level in _ALARM_LEVELS:
-                f = replace(f, level="advisory", detail=f.detail + " (unconfirmed)")
-            if summary.worst is None or _severity(f) > _severity(summary.worst):
-                summary.worst = f
-            summary.any = max(summary.any, weight)
-            if f.level == "emergency":
-                summary.emergency = max(summary.emergency, weight)
-            if f.level in _ALARM_LEVELS:
-                summary.alarm = max(summary.alarm, weight)
-                if summary.worst_alarm is None or _severity(f) > _severity(summary.worst_alarm):
-                    summary.worst_alarm = f
-            if (
-                trusted
-                and f.closing_mps > c.closing_speed_mps
-                and f.margin_m <= release.release_margin_m + release.release_time_s * f.closing_mps
-            ):
-                summary.hold = max(summary.hold, weight)
-        return summary
-
-    def _approach_findings(
-        self,
-        cycle: CycleViews,
-        own: VehicleView,
-        approach: ConflictApproach,
-        other: VehicleView,
-        g_idx: int,
-    ) -> list[tuple[Finding, float]]:
-        """Findings of one own approach to a conflict point against the other's ways
-        through it (zone left empty), each with the probability of the other's way."""
-        if self.track_map is None:  # pragma: no cover - guarded by the caller
-            return []
-        entries = cycle.by_conflict.get(approach.conflict_id, {}).get(other.vehicle_id, ())
-        out = []
-        conflict = self.track_map.conflicts[approach.conflict_id]
-        mine = cycle.ways.get((own.vehicle_id, approach))
-        if mine is None:
-            mine = cycle.ways[(own.vehicle_id, approach)] = way_through(
-                own, conflict, approach.distance_m, approach.from_edge, approach.to_edge
-            )
-        for entry in entries:
-            if entry.hyp != g_idx:
-                continue
-            kind = conflict_kind(
-                conflict, approach.from_edge, approach.to_edge, entry.from_edge, entry.to_edge
-            )
-            if kind is None:
-                continue
-            timed = cycle.arrivals.get(entry)
-            if timed is None:
-                theirs = way_through(
-                    other, conflict, entry.distance_m, entry.from_edge, entry.to_edge
-                )
-                traction = self._profile(other.vehicle_id).traction_mps2
-                timed = cycle.arrivals[entry] = (
-                    theirs,
-                    earliest_arrival_s(other, theirs, self._rules, traction),
-                )
-            found = at_conflict(own, kind, mine, other, timed[0], timed[1], self._rules)
-            if found is not None:
-                out.append((found, entry.probability))
-        return out
+    def _traction(self, vid: str) -> float:
+        return self._profile(vid).traction_mps2
 
     def _suppression_reason(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> str:
         if self.track_map is None:  # pragma: no cover - guarded
@@ -867,39 +710,3 @@ class Analyser:
             if near <= self.config.parallel_distance_m:
                 return "parallel_track"
         return "not_reachable"
-
-
-@dataclass(slots=True)
-class _Summary:
-    """The most probable findings of each kind (weights) and the most severe ones."""
-
-    any: float = 0.0
-    alarm: float = 0.0
-    emergency: float = 0.0
-    hold: float = 0.0
-    worst: Finding | None = None
-    worst_alarm: Finding | None = None
-
-    def add(self, later: _Summary) -> None:
-        """Follow this summary by another (ties of severity keep the earlier)."""
-        if later.worst is None:
-            return
-        self.any = max(self.any, later.any)
-        self.alarm = max(self.alarm, later.alarm)
-        self.emergency = max(self.emergency, later.emergency)
-        self.hold = max(self.hold, later.hold)
-        if self.worst is None or _severity(later.worst) > _severity(self.worst):
-            self.worst = later.worst
-        if later.worst_alarm is not None and (
-            self.worst_alarm is None or _severity(later.worst_alarm) > _severity(self.worst_alarm)
-        ):
-            self.worst_alarm = later.worst_alarm
-
-
-def _in_zone(f: Finding, path: Path) -> Finding:
-    """A finding of a path, labelled with the path's zone."""
-    return f if f.zone == path.zone else replace(f, zone=path.zone)
-
-
-def _severity(f: Finding) -> tuple[int, float]:
-    return (level_rank(f.level), -f.margin_m)

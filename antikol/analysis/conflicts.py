@@ -46,6 +46,7 @@ __all__ = [
     "conflict_kind",
     "earliest_arrival_s",
     "on_path",
+    "pair_sigma_m",
 ]
 
 
@@ -99,6 +100,15 @@ class Finding:
     detail: str
 
 
+def pair_sigma_m(own_sigma_m: float, other_sigma_m: float) -> float:
+    """One-sigma uncertainty of a gap between two vehicles, m: ``sqrt(a² + b²)``.
+
+    Written out rather than :func:`math.hypot` so that the vectorised pair evaluation
+    (:mod:`antikol.analysis.pairs`) reproduces it to the last bit.
+    """
+    return math.sqrt(own_sigma_m * own_sigma_m + other_sigma_m * other_sigma_m)
+
+
 def _level(gap_eff: float, warning_m: float, emergency_m: float, horizon_m: float) -> Level:
     if gap_eff <= emergency_m:
         return "emergency"
@@ -142,7 +152,7 @@ def on_path(
         allows: two vehicles cannot stand inside each other, so one of the placements is
         wrong (a parallel track) and the pair is judged on its other hypotheses.
     """
-    sigma = math.hypot(own.sigma_m, other.sigma_m)
+    sigma = pair_sigma_m(own.sigma_m, other.sigma_m)
     # the speed over ground of a standing vehicle is receiver noise: count it as zero
     v_own = own.speed_mps if own.speed_mps >= rules.standing_speed_mps else 0.0
     v_other = other.speed_mps if other.speed_mps >= rules.standing_speed_mps else 0.0
@@ -343,7 +353,7 @@ def at_conflict(
         if own_arrival_s > other_latest_s + rules.window_slack_s and math.isfinite(other_latest_s):
             return None  # at their speed they will have cleared it before we get there
     gap = max(mine.enter_m, 0.0)
-    sigma = math.hypot(own.sigma_m, other.sigma_m)
+    sigma = pair_sigma_m(own.sigma_m, other.sigma_m)
     closing = 0.0 if standing else v_own
     gap_eff = gap - rules.gap_margin_sigmas * sigma - closing * rules.anticipation_s
     level = _level(gap_eff, own.warning_m, own.emergency_m, own.horizon_m)

@@ -1,0 +1,776 @@
+"""Every pair of one analysis time at once: the conflict rules over flat arrays.
+
+The rules are those of :mod:`antikol.analysis.conflicts` — ``on_path`` when the other
+vehicle stands on an own path, ``at_conflict`` when both vehicles' paths pass one conflict
+point from different tracks — combined over the match hypotheses and zones as the analyser
+documents:
+
+* for each own hypothesis *h*, other hypothesis *g* and own path *p*: when *g* stands on *p*
+  the pair is judged on that alone (rear-end or head-on; two bodies deeply inside each other
+  judge nothing on *p*); otherwise on every conflict point of *p* that the other vehicle's
+  paths pass, each of the other's ways through it weighted by the probability of that way;
+* of each level the most probable finding counts, weighted by ``P(h)·P(g)·P(p)`` and summed
+  over *h*, *g*, *p*; a warning needs the summed weight of warning-level findings to reach
+  ``warning_probability`` (``emergency_probability`` for emergencies); the finding shown is
+  the most severe, the first of equals in the order *h*, *g*, *p*, conflict point, way;
+* a finding of an untrusted hypothesis (wrong way without sustained evidence) is at most an
+  advisory; the alarm is held while trusted conflicts worth ``warning_probability`` close in.
+
+Evaluated pair by pair in Python, a city's cycle costs tens of microseconds per conflict
+point per hypothesis per pair. Here every such row of every pair is one element of numpy
+arrays, and the reductions keep the pair-by-pair order: sums run in the order *h*, *g*, *p*
+(:func:`numpy.bincount` adds sequentially) and ties keep the first row, so the outcome is
+the same to the last bit as the scalar rules (``tests/test_pairs.py`` compares them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Collection
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from antikol.analysis.conflicts import Finding, RuleSettings
+from antikol.analysis.views import CycleViews, VehicleView
+from antikol.kinds import LEVELS, Level, ThreatKind
+from trackmap import Path, TrackMap
+
+__all__ = ["PairEvaluator", "PairOutcome", "PairSettings"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+
+_NONE, _ADVISORY, _WARNING, _EMERGENCY = (LEVELS.index(x) for x in LEVELS)
+_KINDS: tuple[ThreatKind, ...] = ("rear_end", "head_on", "merge", "crossing")
+_REAR_END, _HEAD_ON, _MERGE, _CROSSING = range(4)
+
+
+@dataclass(frozen=True, slots=True)
+class PairSettings:
+    """How findings combine into a pair's outcome (see :class:`~antikol.AnalyserConfig`).
+
+    Attributes
+    ----------
+    warning_probability, emergency_probability : float
+        Weight of warning-level (emergency-level) findings that raises an alarm.
+    closing_speed_mps : float
+        A trusted finding closing faster than this, m/s ...
+    release_margin_m, release_time_s : float
+        ... within ``release_margin_m + release_time_s x closing`` of its warning distance
+        holds the pair's alarm (m, s).
+    """
+
+    warning_probability: float
+    emergency_probability: float
+    closing_speed_mps: float
+    release_margin_m: float
+    release_time_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class PairOutcome:
+    """What one pair's evaluation decided.
+
+    Attributes
+    ----------
+    level : str
+        ``none``, ``advisory``, ``warning`` or ``emergency``.
+    finding : Finding
+        The finding shown (the most severe alarm-level one when the level is an alarm).
+    probability : float
+        Weight of the findings behind the level.
+    hold : bool
+        Closing conflicts worth ``warning_probability`` keep an alarm on.
+    ambiguous : bool
+        The findings do not cover every combination of hypotheses and zones, or a
+        position is ambiguous.
+    """
+
+    level: Level
+    finding: Finding
+    probability: float
+    hold: bool
+    ambiguous: bool
+
+
+@dataclass(slots=True)
+class _Flat:
+    """The views of one time as parallel arrays: vehicles, hypotheses, paths, approaches
+    to conflict points, path-approach links and path steps."""
+
+    views: list[VehicleView]
+    paths: list[Path]
+    veh: dict[str, Any]
+    hyp: dict[str, Any]
+    path: dict[str, Any]
+    app: dict[str, Any]
+    link: dict[str, Any]
+    step: dict[str, Any]
+
+
+@dataclass(slots=True)
+class _Findings:
+    """Rows of findings: who, where, which level, how far."""
+
+    own: IntArray  # own vehicle
+    other: IntArray  # other vehicle
+    kind: IntArray
+    rank: IntArray  # level after an untrusted alarm is capped to an advisory
+    capped: BoolArray
+    gap: FloatArray
+    margin: FloatArray
+    closing: FloatArray
+    ttc: FloatArray  # nan: none
+
+
+@dataclass(slots=True)
+class _Summaries:
+    """Per group of finding rows: the most probable weight of each kind and the most
+    severe rows (-1: none)."""
+
+    any: FloatArray
+    alarm: FloatArray
+    emergency: FloatArray
+    hold: FloatArray
+    worst: IntArray
+    worst_alarm: IntArray
+
+
+class PairEvaluator:
+    """Evaluates every pair of one analysis time (see the module).
+
+    Parameters
+    ----------
+    net : trackmap.TrackMap
+    rules : RuleSettings
+    settings : PairSettings
+    """
+
+    def __init__(self, net: TrackMap, rules: RuleSettings, settings: PairSettings) -> None:
+        self.net = net
+        self.rules = rules
+        self.settings = settings
+        # (conflict, from, to) -> fouling extent before and after the point (m) and the
+        # branches of a merge taken (a code; -1: none or not a merge)
+        self._ways: dict[tuple[int, int, int], tuple[float, float, int]] = {}
+        self._branch_codes: dict[tuple[int, ...], int] = {}
+        self._merges = np.array([c.kind == "merge" for c in net.conflicts], dtype=bool)
+
+    def evaluate(
+        self,
+        cycle: CycleViews,
+        traction_mps2: Callable[[str], float],
+        owners: Collection[str] | None = None,
+    ) -> dict[str, dict[str, PairOutcome]]:
+        """The outcome of every pair with a finding.
+
+        Parameters
+        ----------
+        cycle : CycleViews
+        traction_mps2 : callable
+            The traction acceleration of a vehicle (by id), m/s².
+        owners : collection of str, optional
+            The own vehicles to evaluate (default: every matched vehicle).
+
+        Returns
+        -------
+        dict
+            ``own id -> other id -> PairOutcome``; a pair without findings is absent.
+        """
+        flat = self._flatten(cycle, traction_mps2)
+        nveh = len(flat.views)
+        if nveh < 2:
+            return {}
+        is_owner = np.ones(nveh, dtype=bool)
+        if owners is not None:
+            wanted = set(owners)
+            is_owner = np.array([v.vehicle_id in wanted for v in flat.views], dtype=bool)
+        found, path_rows = self._conflict_paths(flat, is_owner)
+        on_track = self._on_track(flat, is_owner, found)
+        return self._decide(flat, found, path_rows, on_track)
+
+    # -- flat tables ---------------------------------------------------------------------
+    def _way(self, conflict_id: int, frm: int, to: int) -> tuple[float, float, int]:
+        key = (conflict_id, frm, to)
+        known = self._ways.get(key)
+        if known is not None:
+            return known
+        conflict = self.net.conflicts[conflict_id]
+        if conflict.kind == "merge":
+            branches = conflict.edges[1:]
+            extent = dict(zip(conflict.edges, conflict.extents_m, strict=True))
+            before = extent[frm] if frm in branches else 0.0
+            after = extent[to] if to in branches else 0.0
+            taken = tuple(sorted({frm, to} & set(branches)))
+            code = self._branch_codes.setdefault(taken, len(self._branch_codes)) if taken else -1
+        else:
+            before = after = max(conflict.extents_m)
+            code = -1
+        known = self._ways[key] = (before, after, code)
+        return known
+
+    def _flatten(self, cycle: CycleViews, traction_mps2: Callable[[str], float]) -> _Flat:
+        views: list[VehicleView] = []
+        accel: list[float] = []
+        merge_accel = self.rules.merge_accel_mps2
+        for view in cycle.views.values():
+            if view.hyps:
+                views.append(view)
+                accel.append(min(merge_accel, traction_mps2(view.vehicle_id)))
+        h_veh: list[int] = []
+        h_prob: list[float] = []
+        h_trusted: list[bool] = []
+        h_edge: list[int] = []
+        h_off: list[float] = []
+        h_dir: list[int] = []
+        p_hyp: list[int] = []
+        p_prob: list[float] = []
+        paths: list[Path] = []
+        a_hyp: list[int] = []
+        a_cid: list[int] = []
+        a_dist: list[float] = []
+        a_from: list[int] = []
+        a_to: list[int] = []
+        a_prob: list[float] = []
+        a_before: list[float] = []
+        a_after: list[float] = []
+        a_code: list[int] = []
+        l_path: list[int] = []
+        l_app: list[int] = []
+        s_path: list[int] = []
+        s_edge: list[int] = []
+        s_enter: list[float] = []
+        s_exit: list[float] = []
+        s_start: list[float] = []
+        s_dir: list[int] = []
+        way = self._way
+        for vi, view in enumerate(views):
+            for h in view.hyps:
+                hr = len(h_veh)
+                h_veh.append(vi)
+                h_prob.append(h.probability)
+                h_trusted.append(h.trusted)
+                h_edge.append(h.edge_id)
+                h_off.append(h.offset_m)
+                h_dir.append(int(h.direction))
+                base = len(a_hyp)
+                best = [0.0] * len(h.approaches)
+                for path, pi, ways in zip(
+                    h.paths, h.path_probability, h.path_approaches, strict=True
+                ):
+                    pr = len(p_hyp)
+                    p_hyp.append(hr)
+                    p_prob.append(pi)
+                    paths.append(path)
+                    for k in ways:
+                        l_path.append(pr)
+                        l_app.append(base + k)
+                        if pi > best[k]:
+                            best[k] = pi
+                    for st in path.steps:
+                        s_path.append(pr)
+                        s_edge.append(st.edge_id)
+                        s_enter.append(st.enter_offset_m)
+                        s_exit.append(st.exit_offset_m)
+                        s_start.append(st.start_m)
+                        s_dir.append(int(st.direction))
+                for ap, prob in zip(h.approaches, best, strict=True):
+                    before, after, code = way(ap.conflict_id, ap.from_edge, ap.to_edge)
+                    a_hyp.append(hr)
+                    a_cid.append(ap.conflict_id)
+                    a_dist.append(ap.distance_m)
+                    a_from.append(ap.from_edge)
+                    a_to.append(ap.to_edge)
+                    a_prob.append(prob)
+                    a_before.append(before)
+                    a_after.append(after)
+                    a_code.append(code)
+        f8, i8 = np.float64, np.int64
+        veh = {
+            "speed": np.array([v.speed_mps for v in views], dtype=f8),
+            "sigma": np.array([v.sigma_m for v in views], dtype=f8),
+            "front": np.array([v.ends.front_m for v in views], dtype=f8),
+            "rear": np.array([v.ends.rear_m for v in views], dtype=f8),
+            "warning": np.array([v.warning_m for v in views], dtype=f8),
+            "emergency": np.array([v.emergency_m for v in views], dtype=f8),
+            "horizon": np.array([v.horizon_m for v in views], dtype=f8),
+            "accel": np.array(accel, dtype=f8),
+            "emergency_braking": np.array(
+                [v.report.braking == "emergency" for v in views], dtype=bool
+            ),
+        }
+        hyp = {
+            "veh": np.array(h_veh, dtype=i8),
+            "prob": np.array(h_prob, dtype=f8),
+            "trusted": np.array(h_trusted, dtype=bool),
+            "edge": np.array(h_edge, dtype=i8),
+            "off": np.array(h_off, dtype=f8),
+            "dir": np.array(h_dir, dtype=i8),
+        }
+        app: dict[str, Any] = {
+            "hyp": np.array(a_hyp, dtype=i8),
+            "cid": np.array(a_cid, dtype=i8),
+            "from": np.array(a_from, dtype=i8),
+            "to": np.array(a_to, dtype=i8),
+            "prob": np.array(a_prob, dtype=f8),
+            "code": np.array(a_code, dtype=i8),
+        }
+        # the ways through the fouling areas (conflicts.approach) and the earliest
+        # arrivals there (conflicts.earliest_arrival_s), with the scalar rules' operations
+        av = hyp["veh"][app["hyp"]]
+        front = np.array(a_dist, dtype=f8) - veh["front"][av]
+        length = veh["front"][av] + veh["rear"][av]
+        app["enter"] = front - np.array(a_before, dtype=f8)
+        app["point"] = front
+        app["clear"] = front + np.array(a_after, dtype=f8) + length
+        app["arrival"] = _arrival_s(
+            app["enter"],
+            veh["speed"][av],
+            veh["accel"][av],
+            np.maximum(self.rules.merge_max_speed_mps, veh["speed"][av]),
+        )
+        app["veh"] = av
+        # merges: a conflict point is a merge for every way through it
+        app["merge"] = self._merges[app["cid"]]
+        path_table = {"hyp": np.array(p_hyp, dtype=i8), "prob": np.array(p_prob, dtype=f8)}
+        link = {"path": np.array(l_path, dtype=i8), "app": np.array(l_app, dtype=i8)}
+        enter, exit_ = np.array(s_enter, dtype=f8), np.array(s_exit, dtype=f8)
+        step = {
+            "path": np.array(s_path, dtype=i8),
+            "edge": np.array(s_edge, dtype=i8),
+            "enter": enter,
+            "lo": np.minimum(enter, exit_),
+            "hi": np.maximum(enter, exit_),
+            "start": np.array(s_start, dtype=f8),
+            "dir": np.array(s_dir, dtype=i8),
+        }
+        return _Flat(views, paths, veh, hyp, path_table, app, link, step)
+
+    # -- merges and crossings ------------------------------------------------------------
+    def _conflict_paths(self, flat: _Flat, is_owner: BoolArray) -> tuple[_Findings, dict[str, Any]]:
+        """Findings at conflict points and their summaries per (own path, other hypothesis)."""
+        app, hyp, veh, r = flat.app, flat.hyp, flat.veh, self.rules
+        n_app = len(app["hyp"])
+        rows = np.arange(n_app)
+        # exact early exits of at_conflict: we have passed the point / they have cleared it
+        mine = rows[is_owner[app["veh"]] & (app["point"] >= 0.0)]
+        theirs = rows[app["clear"] > 0.0]
+        theirs = theirs[np.argsort(app["cid"][theirs], kind="stable")]
+        t_cid = app["cid"][theirs]
+        lo = np.searchsorted(t_cid, app["cid"][mine], side="left")
+        hi = np.searchsorted(t_cid, app["cid"][mine], side="right")
+        a, b = _expand(mine, lo, hi, theirs)
+        keep = app["veh"][a] != app["veh"][b]
+        # conflict_kind: a merge between different branches, a crossing between lines
+        # without a shared edge
+        merge = app["merge"][a]
+        ca, cb = app["code"][a], app["code"][b]
+        fa, ta, fb, tb = app["from"][a], app["to"][a], app["from"][b], app["to"][b]
+        shared = (fa == fb) | (fa == tb) | (ta == fb) | (ta == tb)
+        keep &= np.where(merge, (ca >= 0) & (cb >= 0) & (ca != cb), ~shared)
+        a, b, merge = a[keep], b[keep], merge[keep]
+        ov, tv = app["veh"][a], app["veh"][b]
+        v_own, v_other = veh["speed"][ov], veh["speed"][tv]
+        standing = v_own < r.standing_speed_mps
+        moving_own = np.where(standing, 1.0, v_own)  # a divisor only where it moves
+        own_clear_s = np.where(standing, np.inf, app["clear"][a] / moving_own)
+        keep = ~(app["arrival"][b] > own_clear_s + r.window_slack_s)
+        moving_other = v_other >= r.standing_speed_mps
+        other_latest_s = np.where(
+            moving_other, app["clear"][b] / np.where(moving_other, v_other, 1.0), np.inf
+        )
+        own_arrival_s = np.maximum(app["enter"][a], 0.0) / moving_own
+        too_late = (
+            (app["enter"][b] > 0.0)
+            & ~standing
+            & (own_arrival_s > other_latest_s + r.window_slack_s)
+            & np.isfinite(other_latest_s)
+        )
+        keep &= ~too_late
+        a, b, merge, ov, tv, standing = (x[keep] for x in (a, b, merge, ov, tv, standing))
+        v_own = veh["speed"][ov]
+        gap = np.maximum(app["enter"][a], 0.0)
+        sigma = _pair_sigma(veh["sigma"][ov], veh["sigma"][tv])
+        closing = np.where(standing, 0.0, v_own)
+        gap_eff = gap - r.gap_margin_sigmas * sigma - closing * r.anticipation_s
+        warning = veh["warning"][ov]
+        rank = _rank(gap_eff, warning, veh["emergency"][ov], veh["horizon"][ov])
+        # waiting at a junction, we are the obstacle: the other must act
+        rank = np.where(standing & (rank >= _WARNING), _ADVISORY, rank)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ttc = np.where(standing | (closing <= 0.0), np.nan, gap / closing)
+        trusted = hyp["trusted"][app["hyp"][a]] & hyp["trusted"][app["hyp"][b]]
+        found = _findings(
+            ov, tv, np.where(merge, _MERGE, _CROSSING), rank, trusted,
+            gap, gap_eff - warning, closing, ttc,
+        )  # fmt: skip
+        # per own approach and other hypothesis: the most probable way of each level
+        g = app["hyp"][b]
+        starts = _starts(a, g)
+        summary = self._summaries(found, app["prob"][b], trusted, starts)
+        s_app, s_g = a[starts], g[starts]
+        # ... per own path and other hypothesis: every approach of the path, in order
+        link = flat.link
+        order = np.argsort(s_app, kind="stable")  # already sorted by (approach, hyp)
+        s_app_sorted = s_app[order]
+        lo = np.searchsorted(s_app_sorted, link["app"], side="left")
+        hi = np.searchsorted(s_app_sorted, link["app"], side="right")
+        l_row, s_row = _expand(np.arange(len(link["app"])), lo, hi, order)
+        l_path = link["path"][l_row]
+        s_hyp = s_g[s_row]
+        sort = np.lexsort((l_row, s_hyp, l_path))
+        l_path, s_hyp, s_row = l_path[sort], s_hyp[sort], s_row[sort]
+        groups = _starts(l_path, s_hyp)
+        per_path = _combine(found, summary, s_row, groups)
+        return found, {"path": l_path[groups], "g": s_hyp[groups], "summary": per_path}
+
+    # -- rear-end and head-on ----------------------------------------------------------
+    def _on_track(self, flat: _Flat, is_owner: BoolArray, found: _Findings) -> dict[str, Any]:
+        """Other hypotheses standing on own paths: (path, hypothesis) rows and findings."""
+        step, hyp, veh, r = flat.step, flat.hyp, flat.veh, self.rules
+        s_hyp = flat.path["hyp"][step["path"]]
+        mine = np.flatnonzero(is_owner[hyp["veh"][s_hyp]])
+        by_edge = np.argsort(hyp["edge"], kind="stable")
+        edges = hyp["edge"][by_edge]
+        lo = np.searchsorted(edges, step["edge"][mine], side="left")
+        hi = np.searchsorted(edges, step["edge"][mine], side="right")
+        s, g = _expand(mine, lo, hi, by_edge)
+        h = s_hyp[s]
+        off = hyp["off"][g]
+        keep = (
+            (hyp["veh"][g] != hyp["veh"][h])
+            & (step["lo"][s] - 1e-9 <= off)
+            & (off <= step["hi"][s] + 1e-9)
+        )
+        s, g, h, off = s[keep], g[keep], h[keep], off[keep]
+        p = step["path"][s]
+        # the first step of each path on the other's edge (path order)
+        sort = np.lexsort((s, g, p))
+        s, g, h, p, off = s[sort], g[sort], h[sort], p[sort], off[sort]
+        first = _starts(p, g)
+        s, g, h, p, off = s[first], g[first], h[first], p[first], off[first]
+        distance = step["start"][s] + np.abs(off - step["enter"][s])
+        same_way = step["dir"][s] == hyp["dir"][g]
+        ov, tv = hyp["veh"][h], hyp["veh"][g]
+        sigma = _pair_sigma(veh["sigma"][ov], veh["sigma"][tv])
+        speed_own, speed_other = veh["speed"][ov], veh["speed"][tv]
+        v_own = np.where(speed_own >= r.standing_speed_mps, speed_own, 0.0)
+        v_other = np.where(speed_other >= r.standing_speed_mps, speed_other, 0.0)
+        gap = np.where(
+            same_way,
+            distance - veh["front"][ov] - veh["rear"][tv],
+            distance - veh["front"][ov] - veh["front"][tv],
+        )
+        closing = np.where(same_way, v_own - v_other, v_own + v_other)
+        warning = np.where(same_way, veh["warning"][ov], veh["warning"][ov] + veh["warning"][tv])
+        emergency = np.where(
+            same_way, veh["emergency"][ov], veh["emergency"][ov] + veh["emergency"][tv]
+        )
+        if r.rear_end_model == "moving_leader":
+            credit = 0.5 * speed_other**2 / 2.8
+            credited = same_way & ~veh["emergency_braking"][tv]
+            warning = np.where(credited, warning - credit, warning)
+            emergency = np.where(credited, emergency - credit, emergency)
+        # bodies deeply inside each other cannot be on one track: a placement is wrong
+        possible = ~(gap < -(r.overlap_tolerance_m + r.gap_margin_sigmas * sigma))
+        act = np.where(
+            same_way,
+            (v_own > 0.0) & (closing > -r.closing_speed_mps),
+            closing > r.closing_speed_mps,
+        )
+        gap_eff = gap - r.gap_margin_sigmas * sigma - np.maximum(closing, 0.0) * r.anticipation_s
+        rank = _rank(gap_eff, warning, emergency, veh["horizon"][ov])
+        rank = np.where(~act & (rank >= _WARNING), _ADVISORY, rank)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ttc = np.where(closing > 0.0, np.maximum(gap, 0.0) / closing, np.nan)
+        trusted = hyp["trusted"][h] & hyp["trusted"][g]
+        rows = _findings(
+            ov, tv, np.where(same_way, _REAR_END, _HEAD_ON), rank, trusted,
+            gap, gap_eff - warning, closing, ttc,
+        )  # fmt: skip
+        first_row = _append(found, rows)
+        index = first_row + np.arange(len(gap))
+        one = np.ones(len(gap))
+        summary = self._summaries(found, one, trusted, None, rows=index)
+        return {"path": p, "g": g, "possible": possible, "summary": summary}
+
+    # -- combining -------------------------------------------------------------------------
+    def _summaries(
+        self,
+        found: _Findings,
+        weight: FloatArray,
+        trusted: BoolArray,
+        starts: IntArray | None,
+        *,
+        rows: IntArray | None = None,
+    ) -> _Summaries:
+        """Per group of finding rows (``starts``; None: one row per group)."""
+        st = self.settings
+        idx = np.arange(len(found.rank)) if rows is None else rows
+        rank, margin, closing = found.rank[idx], found.margin[idx], found.closing[idx]
+        alarm = rank >= _WARNING
+        hold = (
+            trusted
+            & (closing > st.closing_speed_mps)
+            & (margin <= st.release_margin_m + st.release_time_s * closing)
+        )
+        if starts is None or len(starts) == 0:
+            if starts is not None:
+                idx = idx[:0]
+                weight, alarm, rank, hold = weight[:0], alarm[:0], rank[:0], hold[:0]
+            return _Summaries(
+                weight.copy(),
+                np.where(alarm, weight, 0.0),
+                np.where(rank == _EMERGENCY, weight, 0.0),
+                np.where(hold, weight, 0.0),
+                idx.copy(),
+                np.where(alarm, idx, -1),
+            )
+        zero = np.zeros_like(weight)
+        return _Summaries(
+            _max_at(weight, starts),
+            _max_at(np.where(alarm, weight, zero), starts),
+            _max_at(np.where(rank == _EMERGENCY, weight, zero), starts),
+            _max_at(np.where(hold, weight, zero), starts),
+            _first_worst(idx, rank, margin, starts, np.ones(len(idx), dtype=bool)),
+            _first_worst(idx, rank, margin, starts, alarm),
+        )
+
+    def _decide(
+        self,
+        flat: _Flat,
+        found: _Findings,
+        conflict_rows: dict[str, Any],
+        on_track: dict[str, Any],
+    ) -> dict[str, dict[str, PairOutcome]]:
+        st = self.settings
+        n_hyp = len(flat.hyp["veh"])
+        # a pair judged on a path by the other standing on it is judged by nothing else there
+        located = on_track["path"] * n_hyp + on_track["g"]
+        c_key = conflict_rows["path"] * n_hyp + conflict_rows["g"]
+        free = ~np.isin(c_key, located)
+        cs, ts = conflict_rows["summary"], on_track["summary"]
+        possible = on_track["possible"]
+        path = np.concatenate([conflict_rows["path"][free], on_track["path"][possible]])
+        g = np.concatenate([conflict_rows["g"][free], on_track["g"][possible]])
+        parts = [_pick(cs, free), _pick(ts, possible)]
+        summary = _Summaries(*(np.concatenate([getattr(x, f) for x in parts]) for f in _FIELDS))
+        h = flat.path["hyp"][path]
+        own, other = flat.hyp["veh"][h], flat.hyp["veh"][g]
+        sort = np.lexsort((path, g, h, other, own))
+        path, g, h, own, other = path[sort], g[sort], h[sort], own[sort], other[sort]
+        summary = _pick(summary, sort)
+        if len(path) == 0:
+            return {}
+        starts = _starts(own, other)
+        group = _group_of(len(path), starts)
+        n_groups = len(starts)
+        weight = flat.hyp["prob"][h] * flat.hyp["prob"][g] * flat.path["prob"][path]
+
+        def total(x: FloatArray) -> FloatArray:
+            return np.bincount(group, weights=weight * x, minlength=n_groups).astype(np.float64)
+
+        any_w, alarm_w = total(summary.any), total(summary.alarm)
+        emergency_w, hold_w = total(summary.emergency), total(summary.hold)
+        pos = np.arange(len(path))
+        worst_at = _first_worst(
+            pos, found.rank[summary.worst], found.margin[summary.worst], starts,
+            np.ones(len(pos), dtype=bool),
+        )  # fmt: skip
+        has_alarm = summary.worst_alarm >= 0
+        alarm_rows = np.where(has_alarm, summary.worst_alarm, 0)
+        alarm_at = _first_worst(
+            pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm
+        )
+        out: dict[str, dict[str, PairOutcome]] = {}
+        views, paths = flat.views, flat.paths
+        for k in range(n_groups):
+            own_view, other_view = views[own[starts[k]]], views[other[starts[k]]]
+            hold = bool(hold_w[k] >= st.warning_probability)
+            any_weight = float(any_w[k])
+            ambiguous = any_weight < 0.999 or any(
+                p is not None and p.status == "ambiguous"
+                for p in (own_view.position, other_view.position)
+            )
+            a = alarm_at[k]
+            if a >= 0 and (
+                alarm_w[k] >= st.warning_probability or emergency_w[k] >= st.emergency_probability
+            ):
+                f = _finding(found, int(summary.worst_alarm[a]), paths[path[a]], other_view)
+                outcome = PairOutcome(f.level, f, float(alarm_w[k]), hold, ambiguous)
+            else:
+                w = worst_at[k]
+                row = int(summary.worst[w])
+                level: Level = "advisory" if found.rank[row] != _NONE else "none"
+                f = _finding(found, row, paths[path[w]], other_view, level=level)
+                outcome = PairOutcome(level, f, any_weight, hold, ambiguous)
+            out.setdefault(own_view.vehicle_id, {})[other_view.vehicle_id] = outcome
+        return out
+
+
+_FIELDS = ("any", "alarm", "emergency", "hold", "worst", "worst_alarm")
+
+
+def _pick(s: _Summaries, index: Any) -> _Summaries:
+    return _Summaries(*(getattr(s, f)[index] for f in _FIELDS))
+
+
+def _combine(found: _Findings, parts: _Summaries, rows: IntArray, starts: IntArray) -> _Summaries:
+    """Summaries of consecutive parts (``_Summary.add`` in order): maxima of the weights,
+    the first most severe of the worst rows."""
+    sel = _pick(parts, rows)
+    pos = np.arange(len(rows))
+    worst_at = _first_worst(
+        pos, found.rank[sel.worst], found.margin[sel.worst], starts, np.ones(len(pos), bool)
+    )
+    has_alarm = sel.worst_alarm >= 0
+    alarm_rows = np.where(has_alarm, sel.worst_alarm, 0)
+    alarm_at = _first_worst(
+        pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm
+    )
+    return _Summaries(
+        _max_at(sel.any, starts),
+        _max_at(sel.alarm, starts),
+        _max_at(sel.emergency, starts),
+        _max_at(sel.hold, starts),
+        sel.worst[worst_at],
+        np.where(alarm_at >= 0, sel.worst_alarm[np.maximum(alarm_at, 0)], -1),
+    )
+
+
+def _max_at(x: FloatArray, starts: IntArray) -> FloatArray:
+    """Maxima of the runs starting at ``starts``."""
+    return np.maximum.reduceat(x, starts) if len(starts) else x[:0].copy()
+
+
+def _first_worst(
+    idx: IntArray, rank: IntArray, margin: FloatArray, starts: IntArray, eligible: BoolArray
+) -> IntArray:
+    """Per group (``starts``) the position of the most severe eligible row — highest rank,
+    then smallest margin, then first — or -1 when none is eligible."""
+    n = len(idx)
+    if n == 0 or len(starts) == 0:
+        return np.zeros(len(starts), dtype=np.int64)
+    group = _group_of(n, starts)
+    top = np.maximum.reduceat(np.where(eligible, rank, -1), starts)
+    best = eligible & (rank == top[group])
+    tight = np.minimum.reduceat(np.where(best, margin, np.inf), starts)
+    best &= margin == tight[group]
+    first = np.minimum.reduceat(np.where(best, np.arange(n), n), starts)
+    return np.where(top >= 0, first, -1)
+
+
+def _group_of(n: int, starts: IntArray) -> IntArray:
+    """The group number of each of ``n`` rows, groups starting at ``starts``."""
+    mark = np.zeros(n, dtype=np.int64)
+    mark[starts[1:]] = 1
+    return np.cumsum(mark)
+
+
+def _findings(
+    own: IntArray,
+    other: IntArray,
+    kind: IntArray,
+    rank: IntArray,
+    trusted: BoolArray,
+    gap: FloatArray,
+    margin: FloatArray,
+    closing: FloatArray,
+    ttc: FloatArray,
+) -> _Findings:
+    # an untrusted hypothesis (wrong way without sustained evidence) advises at most
+    capped = ~trusted & (rank >= _WARNING)
+    return _Findings(
+        own, other, kind, np.where(capped, _ADVISORY, rank), capped, gap, margin, closing, ttc
+    )
+
+
+def _append(found: _Findings, more: _Findings) -> int:
+    first = len(found.rank)
+    for f in fields(_Findings):
+        setattr(found, f.name, np.concatenate([getattr(found, f.name), getattr(more, f.name)]))
+    return first
+
+
+def _finding(
+    found: _Findings, row: int, path: Path, other: VehicleView, *, level: Level | None = None
+) -> Finding:
+    kind = _KINDS[int(found.kind[row])]
+    gap = float(found.gap[row])
+    if kind == "rear_end":
+        detail = f"{other.vehicle_id} ahead on the same track at {gap:.0f} m"
+    elif kind == "head_on":
+        detail = f"{other.vehicle_id} ahead, running towards us at {gap:.0f} m"
+    else:
+        where = "switch" if kind == "merge" else "crossing"
+        detail = f"{other.vehicle_id} can reach the same {where} (we are {gap:.0f} m away)"
+    if found.capped[row]:
+        detail += " (unconfirmed)"
+    ttc = float(found.ttc[row])
+    return Finding(
+        kind,
+        LEVELS[int(found.rank[row])] if level is None else level,
+        gap,
+        float(found.margin[row]),
+        float(found.closing[row]),
+        None if ttc != ttc else ttc,
+        path.zone,
+        detail,
+    )
+
+
+def _rank(
+    gap_eff: FloatArray, warning: FloatArray, emergency: FloatArray, horizon: FloatArray
+) -> IntArray:
+    return np.where(
+        gap_eff <= emergency,
+        _EMERGENCY,
+        np.where(gap_eff <= warning, _WARNING, np.where(gap_eff <= horizon, _ADVISORY, _NONE)),
+    )
+
+
+def _pair_sigma(a: FloatArray, b: FloatArray) -> FloatArray:
+    # conflicts.pair_sigma_m, element by element
+    return np.sqrt(a * a + b * b)
+
+
+def _arrival_s(
+    distance: FloatArray, speed: FloatArray, accel: FloatArray, vmax: FloatArray
+) -> FloatArray:
+    """conflicts.arrival_time_s element by element."""
+    v = np.minimum(speed, vmax)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        coast = np.where(v > 0.0, distance / v, np.inf)
+        d_acc = (vmax * vmax - v * v) / (2.0 * accel)
+        rising = (-v + np.sqrt(v * v + 2.0 * accel * distance)) / accel
+        capped = (vmax - v) / accel + (distance - d_acc) / vmax
+    out = np.where(accel <= 0.0, coast, np.where(distance <= d_acc, rising, capped))
+    return np.where(distance <= 0.0, 0.0, out)
+
+
+def _expand(
+    rows: IntArray, lo: IntArray, hi: IntArray, targets: IntArray
+) -> tuple[IntArray, IntArray]:
+    """Each row repeated once per target in ``targets[lo:hi]``, with that target."""
+    counts = hi - lo
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    rep = np.repeat(rows, counts)
+    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
+    return rep, targets[first + np.arange(total)]
+
+
+def _starts(*keys: IntArray) -> IntArray:
+    """Start positions of the runs of equal consecutive keys."""
+    n = len(keys[0])
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    change = np.zeros(n, dtype=bool)
+    change[0] = True
+    for k in keys:
+        change[1:] |= k[1:] != k[:-1]
+    return np.flatnonzero(change)
