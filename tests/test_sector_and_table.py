@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -70,25 +72,55 @@ def test_table_register_update_stale_duplicate_expire():
     assert table.stats["expired"] == 1
 
 
+def offer(table, vid, x, y, *, t=0.0):
+    """A newcomer reports twice (a full table wants a confirmed newcomer)."""
+    res = table.update(at(vid, x, y, t=t))
+    if res.outcome == "rejected_full":
+        res = table.update(at(vid, x, y, t=t + 0.5))
+    return res
+
+
 def test_table_full_keeps_the_nearest_and_never_drops_own():
     table = VehicleTable(capacity=2, own_id="OWN")
     table.update(at("OWN", 0, 0))
     table.update(at("far", 0, 200))
     table.update(at("mid", 0, 100))
-    res = table.update(at("near", 0, 50))
+    first = table.update(at("near", 0, 50))
+    assert first.outcome == "rejected_full" and first.evicted is None  # not yet confirmed
+    res = table.update(at("near", 0, 52, t=0.5))
     assert res.outcome == "registered" and res.evicted == "far"
-    res = table.update(at("farther", 0, 500))
+    res = offer(table, "farther", 0, 500)
     assert res.outcome == "rejected_full"
     assert set(table.vehicle_ids()) == {"OWN", "mid", "near"}
-    assert table.stats["rejected_full"] == 1 and table.stats["evicted"] == 1
+    assert table.stats["rejected_full"] == 3 and table.stats["evicted"] == 1
+    assert table.stats["unconfirmed"] == 2
 
 
 def test_table_full_without_own_position_drops_least_recent():
     table = VehicleTable(capacity=2)
     table.update(at("a", 0, 10, t=0.0))
     table.update(at("b", 0, 20, t=1.0))
-    res = table.update(at("c", 0, 30, t=2.0))
+    res = offer(table, "c", 0, 30, t=2.0)
     assert res.evicted == "a"
+
+
+def test_one_forged_frame_or_a_jumping_newcomer_never_evicts():
+    table = VehicleTable(capacity=2, own_id="OWN")
+    table.update(at("OWN", 0, 0))
+    table.update(at("real1", 0, 200))
+    table.update(at("real2", 0, 250))
+    # 1000 one-shot phantoms nearer than both real trams: none gets in
+    for i in range(1000):
+        assert table.update(at(f"ph{i}", 0, 20, t=0.1)).outcome == "rejected_full"
+    # a newcomer whose second report is 5 km from its first is not confirmed
+    table.update(at("jump", 0, 30, t=0.2))
+    assert table.update(at("jump", 5000, 30, t=0.4)).outcome == "rejected_full"
+    # nor one without a position fix
+    nofix = VehicleReport("nofix", 0.5, *reversed(GDANSK.to_lonlat(0, 10)), 5.0, 0.0, fix_quality=0)
+    table.update(nofix)
+    assert table.update(replace(nofix, t=0.6)).outcome == "rejected_full"
+    assert set(table.vehicle_ids()) == {"OWN", "real1", "real2"}
+    assert table.stats["evicted"] == 0 and table.stats["rejected_implausible"] >= 1
 
 
 @settings(max_examples=60)
@@ -106,7 +138,7 @@ def test_a_dropped_vehicle_is_never_closer_than_a_kept_one(capacity, positions):
     for i, (x, y) in enumerate(positions):
         vid = f"v{i}"
         dist[vid] = np.hypot(x, y)
-        res = table.update(at(vid, x, y))
+        res = offer(table, vid, x, y)
         if res.outcome == "rejected_full":
             dropped.add(vid)
         if res.evicted:
