@@ -93,11 +93,13 @@ class SecureReceiver:
         # A datagram is self-contained: the leading delimiter drops anything pending.
         reports = self.decoder.feed(b"\x00" + datagram + b"\x00")
         out: list[VehicleReport] = []
+        echo = False
         for report in reports:
             if self.own_id is not None and report.vehicle_id == self.own_id:
                 digest = hashlib.blake2b(datagram.strip(b"\x00"), digest_size=16).digest()
                 if digest in self._sent:
                     self.counts["own_echo"] += 1
+                    echo = True
                 else:
                     self.counts["own_id"] += 1
                     logger.info(
@@ -107,6 +109,8 @@ class SecureReceiver:
             if self.guard.check(report, now) is None:
                 out.append(report)
                 self.counts["accepted"] += 1
+        if not out and not echo:
+            self.counts["datagrams_rejected"] += 1
         return out
 
     def rejected(self) -> dict[str, int]:

@@ -31,6 +31,7 @@ import json
 import logging
 import math
 import os
+import resource
 import selectors
 import socket
 import time
@@ -571,6 +572,7 @@ class OnboardUnit:
             "send_dropped": self.transport.counts["send_dropped"]
             + self.transport.counts["send_error"],
             "datagrams": rx.counts["datagrams"],
+            "datagrams_rejected": rx.counts["datagrams_rejected"],
             "accepted": rx.counts["accepted"],
             "own_echo": rx.counts["own_echo"],
             "rejected": rx.rejected(),
@@ -579,6 +581,7 @@ class OnboardUnit:
             "faults": dict(self.counters.faults),
             "table": dict(self.analyser.table.stats),
             "vehicles": self.analyser.table.vehicle_ids(),
+            "max_rss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
         }
 
     def close(self) -> dict[str, Any]:
