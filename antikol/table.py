@@ -212,7 +212,7 @@ class VehicleTable:
         self._recent: OrderedDict[str, float] = OrderedDict()
         self._dissent: OrderedDict[str, float] = OrderedDict()
         self._pending: OrderedDict[str, VehicleReport] = OrderedDict()
-        self._new_period: float | None = None
+        self._new_period: int | None = None
         self._new_count = 0
         self.stats: Counter[str] = Counter()
 
@@ -415,11 +415,8 @@ class VehicleTable:
     def _register(self, report: VehicleReport, own: bool, expired: list[str]) -> TableUpdate:
         vid = report.vehicle_id
         if not own and self.max_new_ids is not None:
-            period = (
-                math.floor(self._clock / self.new_id_period_s)
-                if math.isfinite(self._clock)
-                else None
-            )
+            ref = self._clock if math.isfinite(self._clock) else report.t
+            period = math.floor(ref / self.new_id_period_s)
             if period != self._new_period:
                 self._new_period, self._new_count = period, 0
             if self._new_count >= self.max_new_ids:

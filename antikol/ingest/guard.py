@@ -9,7 +9,8 @@ receiver with duplicates. :class:`ReplayGuard` checks every authenticated report
   sender whose clock is wrong) is rejected (``"too_old"``, ``"future"``);
 * the sender's sequence numbers, as IPsec does (RFC 4303, section 3.4.3): it keeps the
   highest number seen and a bitmap of the ``seq_window`` numbers below it. A number seen
-  before is a ``"duplicate"``; a number below the window is a ``"replay"``, unless the
+  before is a ``"duplicate"``; a newer number with an older time than the sender's newest
+  report is a ``"replay"``; a number below the window is a ``"replay"`` too, unless the
   report is also newer than every report of that sender so far (the sender restarted and
   its numbers began again), which restarts the window (counted in ``stats["resync"]``).
   Numbers wrap at 2**32 (serial number arithmetic, RFC 1982).
@@ -146,6 +147,8 @@ class ReplayGuard:
         if ahead == 0:
             return "duplicate"
         if ahead < _HALF:  # newer than every number so far
+            if t < state.newest_t:  # a genuine sender's times never go back with its numbers
+                return "replay"
             state.bitmap = ((state.bitmap << ahead) | 1) & ((1 << self.seq_window) - 1)
             state.highest = seq
         else:

@@ -53,7 +53,7 @@ type length value
 ==== ====== ==========================================================================
 
 A report with a 6-byte id and no optional fields is a 39-byte body and a 42-byte frame
-(an HMAC adds 35 bytes, an Ed25519 signature 67);
+(an HMAC tag adds 38 bytes, an Ed25519 signature 70);
 with every optional field and a 20-edge route it is 164 bytes. The largest possible frame
 (32-byte id, every field, 255-edge route) is a 1127-byte body and at most 1134 bytes on
 the wire.
