@@ -45,7 +45,14 @@ from antikol.onboard.attacker import ATTACK_KINDS
 from antikol.onboard.netem import Impairment, Relay
 from antikol.report import VehicleReport
 
-__all__ = ["HarnessConfig", "HarnessResult", "UnitResult", "main", "run_harness"]
+__all__ = [
+    "HarnessConfig",
+    "HarnessResult",
+    "UnitResult",
+    "main",
+    "run_harness",
+    "simulate_traffic",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -203,15 +210,33 @@ def _free_ports(n: int) -> list[int]:
     return ports
 
 
-def _simulate(cfg: HarnessConfig, net: Any, csv: Path) -> list[str]:
+def simulate_traffic(
+    net: Any, *, scenario: str, extra_trams: int, duration_s: float, seed: int
+) -> Any:
+    """The scripted approach plus ``extra_trams`` trams on random routes, simulated.
+
+    Returns
+    -------
+    antikol.sim.SimulationResult
+    """
     from antikol.evaluation.scenarios import build_scenario
     from antikol.sim import Simulator, fleet
 
-    scn = build_scenario(cfg.scenario, net, seed=cfg.seed)
-    specs = list(scn.specs) + fleet(net, cfg.extra_trams, cfg.seed + 1, route_length_m=3000.0)
-    result = Simulator(net, specs, gps=scn.gps, seed=cfg.seed).run(cfg.duration_s)
+    scn = build_scenario(scenario, net, seed=seed)
+    specs = list(scn.specs) + fleet(net, extra_trams, seed + 1, route_length_m=3000.0)
+    return Simulator(net, specs, gps=scn.gps, seed=seed).run(duration_s)
+
+
+def _simulate(cfg: HarnessConfig, net: Any, csv: Path) -> list[str]:
+    result = simulate_traffic(
+        net,
+        scenario=cfg.scenario,
+        extra_trams=cfg.extra_trams,
+        duration_s=cfg.duration_s,
+        seed=cfg.seed,
+    )
     result.write_csv(csv, extra_columns=("braking", "length_m", "antenna_offset_m"))
-    return [s.vehicle_id for s in specs]
+    return [s.vehicle_id for s in result.specs]
 
 
 def _reference(reports: list[VehicleReport], net: Any, until: float) -> dict[str, dict[int, bool]]:

@@ -581,7 +581,7 @@ class OnboardUnit:
             "faults": dict(self.counters.faults),
             "table": dict(self.analyser.table.stats),
             "vehicles": self.analyser.table.vehicle_ids(),
-            "max_rss_kb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+            "max_rss_kb": _peak_rss_kb(),
         }
 
     def close(self) -> dict[str, Any]:
@@ -596,6 +596,18 @@ class OnboardUnit:
         if self.log is not None:
             self.log.flush()
         return stats
+
+
+def _peak_rss_kb() -> int:
+    """Peak resident memory of this process, kB (``VmHWM``: ``ru_maxrss`` would include
+    the parent's memory before ``exec``)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1])
+    except (OSError, ValueError, IndexError):  # pragma: no cover - not Linux
+        pass
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 
 
 def open_log(path: Path | None) -> IO[str] | None:
