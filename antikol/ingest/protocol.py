@@ -54,9 +54,9 @@ type length value
 
 A report with a 6-byte id and no optional fields is a 39-byte body and a 42-byte frame
 (an HMAC tag adds 38 bytes, an Ed25519 signature 70);
-with every optional field and a 20-edge route it is 164 bytes. The largest possible frame
-(32-byte id, every field, 255-edge route) is a 1127-byte body and at most 1134 bytes on
-the wire.
+with every optional field and a 20-edge route it is 175 bytes. The largest possible frame
+(32-byte id, every field, 255-edge route) is a 1138-byte body (1208 with an Ed25519
+signature) and at most 1215 bytes on the wire.
 
 Authentication
 --------------
@@ -92,7 +92,7 @@ extends existing ones. Each known type may appear at most once.
 
 Why CRC-32
 ----------
-Bodies are 34 to 1127 bytes. CRC-32 (IEEE 802.3 polynomial, ``zlib.crc32``, C speed,
+Bodies are 34 to 1208 bytes. CRC-32 (IEEE 802.3 polynomial, ``zlib.crc32``, C speed,
 standard library) detects every error of up to 3 flipped bits in bodies of this size,
 every burst up to 32 bits, and lets random corruption (e.g. radio noise or garbage
 between frames that happens to look like a frame) through with probability about
@@ -193,7 +193,7 @@ PROTOCOL_MINOR: Final = 1
 #: The frame delimiter; it never occurs inside a COBS-encoded body.
 FRAME_DELIMITER: Final = b"\x00"
 #: Largest COBS-encoded body (delimiters excluded) accepted, bytes. This version produces at
-#: most 1210 bytes; the margin is for optional fields added by newer minor versions.
+#: most 1213 bytes; the margin is for optional fields added by newer minor versions.
 MAX_FRAME_BYTES: Final = 2048
 #: Authentication schemes of TLV 9: code -> (name, tag length in bytes).
 AUTH_SCHEMES: Final = {1: ("hmac-sha256", 32), 2: ("ed25519", 64)}
