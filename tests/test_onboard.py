@@ -291,3 +291,57 @@ def test_a_unit_runs_lights_its_lamp_and_stops_cleanly_on_sigterm(tmp_path: Path
     assert stop["event"] == "stop" and stop["sent"] > 20 and stop["accepted"] > 20
     assert stop["rejected_total"] == 0 and stop["overruns"] == 0
     assert t2.returncode == 0
+
+
+def test_control_room_unit_caps_new_ids_and_assesses_everyone() -> None:
+    import io
+    import threading
+
+    from antikol.ingest.auth import KeySet
+    from antikol.onboard.unit import EventSink, OnboardUnit, UnitConfig
+
+    keys = KeySet("hmac-sha256", None, HmacVerifier({1: KEY}))
+    epoch = time.time()
+    config = UnitConfig(
+        vehicle_id=None,
+        gps=None,
+        bind=("127.0.0.1", 0),
+        keys=keys,
+        cycle_s=0.25,
+        epoch=epoch,
+        duration_s=2.5,
+        max_new_ids=20,
+        max_age_s=30.0,
+    )
+    events = io.StringIO()
+    unit = OnboardUnit(config, events=EventSink(events, as_json=True))
+    sender = UdpTransport(("127.0.0.1", 0), [unit.transport.address])
+    signer = HmacSigner(KEY)
+
+    def traffic() -> None:
+        seq = 0
+        for step in range(8):
+            t = time.time() - epoch
+            for vid, lon in (("A", 19.9300), ("B", 19.9320)):  # B stands 143 m ahead of A
+                seq += 1
+                r = VehicleReport(vid, t, 50.06, lon, 8.0 if vid == "A" else 0.0, 90.0)
+                sender.send(encode_report(r, seq=seq, signer=signer))
+            if step == 2:  # an insider floods 2000 new ids at once
+                for i in range(2000):
+                    r = VehicleReport(f"N{i}", t, 50.07, 19.90 + i * 1e-5, 0.0, 0.0)
+                    sender.send(encode_report(r, seq=i, signer=signer))
+            time.sleep(0.2)
+
+    thread = threading.Thread(target=traffic)
+    thread.start()
+    stats = unit.run()
+    thread.join()
+    sender.close()
+    table = stats["table"]
+    assert table["rejected_cap"] > 0
+    # 2000 new ids in one second of clock: 20 got in, the rest was refused and counted
+    assert {"A", "B"} <= set(stats["vehicles"]) and len(stats["vehicles"]) <= 22
+    assert table["rejected_cap"] + len(stats["vehicles"]) - 2 == 2000 - stats["kernel_dropped"]
+    lamps = [json.loads(line) for line in events.getvalue().splitlines()]
+    assert any(e["event"] == "lamp" and e["vehicle"] == "A" and e["lamp"] for e in lamps)
+    assert lamps[-1]["event"] == "stop" and lamps[-1]["vehicle"] is None

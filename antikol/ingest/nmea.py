@@ -99,15 +99,25 @@ import re
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from datetime import UTC, date, datetime, time
+from datetime import UTC, datetime, time
 from pathlib import Path
-from typing import Final, Literal
+from typing import Final
 
 from pynmeagps import VALCKSUM, NMEAMessage, NMEAReader
 from pynmeagps.exceptions import NMEAMessageError, NMEAParseError, NMEATypeError
 from pynmeagps.nmeahelpers import calc_checksum, get_parts
 
 from antikol.errors import InputFileError, InvalidReportError
+from antikol.ingest.nmea_fields import (
+    _LEAP,
+    _coordinate,
+    _course,
+    _raw,
+    _rmc_date,
+    _Skip,
+    _speed,
+    _time_of_day,
+)
 from antikol.ingest.nmea_spec import (
     GNSS_TALKERS,
     KMH_PER_MPS,
@@ -117,7 +127,7 @@ from antikol.ingest.nmea_spec import (
     UNIX_EPOCH,
 )
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
-from antikol.report import MAX_SPEED_MPS, VehicleReport
+from antikol.report import VehicleReport
 from antikol.thresholds import STANDING_SPEED_MPS
 
 # GNSS_TALKERS, KMH_PER_MPS and KNOT_MPS (nmea_spec) and the format_* writers (nmea_writer)
@@ -166,14 +176,10 @@ SKIP_REASONS: Final[dict[str, str]] = {
 #: Sentence types used, with the fields they need at least (through date, HDOP, km/h unit).
 _MIN_FIELDS: Final = {"RMC": 9, "GGA": 8, "VTG": 8}
 _SENTENCE = re.compile(r"\$(?P<content>[^$*]*)\*(?P<checksum>[0-9A-Fa-f]{2})")
-_HHMMSS = re.compile(r"\d{6}(?:\.\d{1,6})?")
-_DDMMYY = re.compile(r"\d{6}")
-_LEAP = re.compile(r"235960(?:\.(?P<frac>\d{1,6}))?")
 #: A late or early date change is recognised within this time of midnight, s.
 _MIDNIGHT_S: Final = 120.0
 _DAY_S: Final = 86400.0
 _NOT_IN_FIELDS = re.compile(r"[\s_]")  # Python's float()/int() would tolerate them
-_DDMM = re.compile(r"(?P<deg>\d{2,3})(?P<min>\d{2}\.\d+)")
 _STRIP = " \t\r\n\x00"
 
 
@@ -218,15 +224,6 @@ class NmeaStats:
             "skipped": dict(sorted(self.skipped.items())),
             "flagged": dict(sorted(self.flagged.items())),
         }
-
-
-class _Skip(Exception):
-    """Internal: a sentence is rejected for ``reason``."""
-
-    def __init__(self, reason: str, detail: str) -> None:
-        super().__init__(detail)
-        self.reason = reason
-        self.detail = detail
 
 
 @dataclass(slots=True)
@@ -656,73 +653,6 @@ class NmeaReader:
     def _skip(self, reason: str, detail: str, count: int = 1) -> None:
         self._stats.skipped[reason] += count
         logger.debug("%s: skipped %d (%s): %s", self.vehicle_id, count, reason, detail)
-
-
-def _raw(msg: NMEAMessage, index: int) -> str:
-    payload = msg.payload
-    return str(payload[index]) if index < len(payload) else ""
-
-
-def _time_of_day(msg: NMEAMessage) -> time | None:
-    """UTC time of day of an RMC or GGA (first field ``hhmmss[.ss]``), ``None`` if invalid."""
-    value = getattr(msg, "time", None)
-    raw = _raw(msg, 0)
-    leap = _LEAP.fullmatch(raw)
-    if leap is not None:  # 23:59:60.f: the last millisecond of the day (see *Midnight*)
-        frac = leap["frac"] or "0"
-        return time(23, 59, 59, 999000 + int(frac.ljust(6, "0")) // 1000)
-    if not (isinstance(value, time) and _HHMMSS.fullmatch(raw)):
-        return None
-    return value
-
-
-def _rmc_date(msg: NMEAMessage) -> date | None:
-    """Date of an RMC (ninth field ``ddmmyy``), ``None`` if invalid."""
-    value = getattr(msg, "date", None)
-    if not (isinstance(value, date) and _DDMMYY.fullmatch(_raw(msg, 8))):
-        return None
-    return value
-
-
-def _coordinate(msg: NMEAMessage, index: int, name: str, hemi_name: str, limit: float) -> float:
-    """Signed degrees from the raw ``(d)ddmm.mmmm`` field at payload ``index``."""
-    raw = _raw(msg, index)
-    hemi = getattr(msg, hemi_name, "")
-    value = getattr(msg, name, "")
-    match = _DDMM.fullmatch(raw)
-    if match is None or not isinstance(value, float):
-        raise _Skip("garbled", f"{name} {raw!r}")
-    negative, positive = ("S", "N") if name == "lat" else ("W", "E")
-    if hemi not in (negative, positive):
-        raise _Skip("garbled", f"{hemi_name} {hemi!r}")
-    # 60.0 is tolerated: some writers (pynmeagps's own ddd2dmm) round 59.999995 up to it.
-    if float(match["min"]) > 60.0 or abs(value) > limit:
-        raise _Skip("invalid_value", f"{name} {raw!r}")
-    return -abs(value) if hemi == negative else abs(value)
-
-
-def _speed(value: object, unit: Literal["kn", "km/h"], what: str) -> float | None:
-    """Speed in m/s from a decoded field in knots or km/h (``None`` when empty).
-
-    Knots are multiplied by 1852/3600, km/h divided by 3.6.
-    """
-    if value is None or value == "":
-        return None
-    if not (isinstance(value, float) and math.isfinite(value) and value >= 0.0):
-        raise _Skip("invalid_value", f"{what} {value!r} {unit}")
-    speed = value * KNOT_MPS if unit == "kn" else value / KMH_PER_MPS
-    if speed > MAX_SPEED_MPS:
-        raise _Skip("invalid_value", f"{what} {value!r} {unit} above {MAX_SPEED_MPS:g} m/s")
-    return speed
-
-
-def _course(value: object, what: str) -> float | None:
-    """Course in degrees from a decoded field (``None`` when empty)."""
-    if value is None or value == "":
-        return None
-    if not (isinstance(value, float) and 0.0 <= value <= 360.0):
-        raise _Skip("invalid_value", f"{what} {value!r}")
-    return 0.0 if value == 360.0 else value
 
 
 # --------------------------------------------------------------------------- files
