@@ -345,3 +345,34 @@ def test_control_room_unit_caps_new_ids_and_assesses_everyone() -> None:
     lamps = [json.loads(line) for line in events.getvalue().splitlines()]
     assert any(e["event"] == "lamp" and e["vehicle"] == "A" and e["lamp"] for e in lamps)
     assert lamps[-1]["event"] == "stop" and lamps[-1]["vehicle"] is None
+
+
+def test_live_nmea_stream_and_paced_sources(tmp_path: Path) -> None:
+    import os
+
+    from antikol.ingest.nmea_writer import format_rmc
+    from antikol.onboard.sources import NmeaStreamSource, PacedSource, open_source
+
+    fixes = [VehicleReport("T1", 1_700_000_000.0 + k, 50.06, 19.93, 5.0, 90.0) for k in range(3)]
+    read_fd, write_fd = os.pipe()
+    source = NmeaStreamSource(os.fdopen(read_fd, "rb"), "T1")
+    with os.fdopen(write_fd, "wb") as pipe:
+        for r in fixes:
+            pipe.write((format_rmc(r) + "\r\n").encode())
+    got: list[VehicleReport] = []
+    for _ in range(200):
+        got += source.poll(time.time())
+        if len(got) >= 2:
+            break
+        time.sleep(0.01)
+    assert [r.t for r in got][:2] == [fixes[0].t, fixes[1].t]
+    assert source.report_time(0.0) is None  # the clock follows the receiver
+    source.close()
+    # a regular NMEA file is replayed at the pace of its fixes
+    path = tmp_path / "t1.nmea"
+    path.write_text("".join(format_rmc(r) + "\r\n" for r in fixes))
+    paced = open_source(f"nmea:{path}", "T1", start_wall=1000.0)
+    assert isinstance(paced, PacedSource)
+    assert [r.t for r in paced.poll(1000.5)] == [fixes[0].t]
+    assert [r.t for r in paced.poll(1002.0)] == [fixes[1].t, fixes[2].t]
+    assert paced.finished
