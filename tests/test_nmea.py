@@ -478,6 +478,62 @@ def test_duplicate_and_backwards_times() -> None:
     assert reader.stats.skipped == {"duplicate": 1, "time_backwards": 1}
 
 
+def test_one_rmc_dated_a_year_ahead_costs_one_epoch_not_the_rest() -> None:
+    lines: list[str | bytes] = [rmc("120000"), rmc("120001", "150325")]
+    lines += [rmc(f"1200{s:02d}") for s in range(2, 10)]
+    reports, reader = read_all(lines)
+    base = utc(2024, 3, 15, 12, 0, 0)
+    assert [r.t - base for r in reports] == [0.0, *range(2, 10)]
+    assert reader.stats.skipped == {"time_jump": 1}
+    assert "time_reset" not in reader.stats.flagged
+
+
+def test_a_wrong_first_fix_is_outvoted_and_a_real_jump_adopted() -> None:
+    # the very first fix is a year ahead: the genuine timeline is adopted at its second fix
+    lines: list[str | bytes] = [rmc("120000", "150325"), rmc("120001"), rmc("120002")]
+    reports, reader = read_all(lines)
+    assert [r.t for r in reports] == [utc(2025, 3, 15, 12, 0, 0), utc(2024, 3, 15, 12, 0, 2)]
+    assert reader.stats.flagged["time_reset"] == 1
+    # after a 10-minute outage the first fix is held back, the second one adopted
+    lines = [rmc("120000"), rmc("121000"), rmc("121001"), rmc("121002")]
+    reports, reader = read_all(lines)
+    assert [r.t - utc(2024, 3, 15, 12, 0, 0) for r in reports] == [0.0, 601.0, 602.0]
+    assert reader.stats.skipped == {"time_jump": 1}
+
+
+def test_late_and_early_date_change_at_midnight_keep_the_fix() -> None:
+    late: list[str | bytes] = [rmc("235959", "311224"), rmc("000000", "311224")]
+    late.append(rmc("000001", "010125"))
+    reports, reader = read_all(late)
+    assert [r.t for r in reports] == [utc(2024, 12, 31, 23, 59, 59) + k for k in range(3)]
+    assert reader.stats.flagged["date_late"] == 1 and reader.stats.total_skipped == 0
+    early: list[str | bytes] = [rmc("235958", "311224"), rmc("235959", "010125")]
+    early.append(rmc("000000", "010125"))
+    reports, reader = read_all(early)
+    assert [r.t for r in reports] == [utc(2024, 12, 31, 23, 59, 58) + k for k in range(3)]
+    assert reader.stats.flagged["date_early"] == 1 and reader.stats.total_skipped == 0
+
+
+def test_leap_second_is_kept_between_its_neighbours() -> None:
+    lines: list[str | bytes] = [
+        gga("235959.50"),
+        rmc("235959.50", "311216"),
+        gga("235960.00"),
+        rmc("235960.00", "311216"),
+        gga("235960.50"),
+        rmc("235960.50", "311216"),
+        gga("000000.00"),
+        rmc("000000.00", "010117"),
+    ]
+    reports, reader = read_all(lines)
+    midnight = utc(2017, 1, 1, 0, 0, 0)
+    assert [r.t - midnight for r in reports] == pytest.approx(
+        [-0.5, -0.001, -0.0005, 0.0], abs=1e-6
+    )
+    assert all(r.hdop is not None for r in reports)  # GGA of the leap second paired
+    assert reader.stats.flagged["leap_second"] == 2 and reader.stats.total_skipped == 0
+
+
 def test_duplicate_sentence_within_open_epoch() -> None:
     lines: list[str | bytes] = [
         gga("120000"),
@@ -619,6 +675,7 @@ def test_skip_reasons_are_documented() -> None:
         vtg(),
         rmc("120004", talker="GP"),
         rmc("120003"),
+        rmc("120004", "150325"),  # a year ahead
     ]
     _, reader = read_all(lines)
     assert set(reader.stats.skipped) == set(SKIP_REASONS)

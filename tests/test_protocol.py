@@ -17,6 +17,7 @@ from antikol.errors import AntikolError, InvalidReportError, ProtocolError
 from antikol.ingest.protocol import (
     MAX_FRAME_BYTES,
     PROTOCOL_MAJOR,
+    PROTOCOL_MINOR,
     REJECT_REASONS,
     EncodeError,
     FrameError,
@@ -71,6 +72,7 @@ def reports(draw: st.DrawFn) -> VehicleReport:
         seq=draw(st.none() | U32),
         hdop=draw(st.none() | st.floats(min_value=0.0, max_value=1000.0)),
         fix_quality=draw(st.none() | st.integers(min_value=0, max_value=9)),
+        odometer_m=draw(st.none() | st.floats(min_value=0.0, max_value=1e15)),
     )
 
 
@@ -94,7 +96,7 @@ def _tlv(typ: int, value: bytes) -> bytes:
 def _hand_body(
     *,
     major: int = 1,
-    minor: int = 0,
+    minor: int = PROTOCOL_MINOR,
     vid: bytes = b"T1",
     t: float = 1000.25,
     seq: int = 0,
@@ -170,6 +172,9 @@ def _assert_quantised(dec: VehicleReport, orig: VehicleReport, seq: int) -> None
         assert dec.track_position.edge_id == orig.track_position.edge_id
         assert dec.track_position.direction == orig.track_position.direction
         assert abs(dec.track_position.offset_m - orig.track_position.offset_m) <= 0.0005 + 1e-9
+    assert (dec.odometer_m is None) == (orig.odometer_m is None)
+    if dec.odometer_m is not None and orig.odometer_m is not None:
+        assert abs(dec.odometer_m - orig.odometer_m) <= 0.0005 + 1e-12 * orig.odometer_m
     assert (dec.hdop is None) == (orig.hdop is None)
     if dec.hdop is not None and orig.hdop is not None:
         assert abs(dec.hdop - min(orig.hdop, 655.35)) <= 0.005 + 1e-9
@@ -255,6 +260,7 @@ def test_layout_matches_documentation() -> None:
         route=(77, 78, 4000000000),
         hdop=0.9,
         fix_quality=4,
+        odometer_m=123456.789,
     )
     tlvs = (
         _tlv(1, b"\x01")
@@ -264,6 +270,7 @@ def test_layout_matches_documentation() -> None:
         + _tlv(5, struct.pack(">3I", 77, 78, 4000000000))
         + _tlv(6, struct.pack(">H", 90))
         + _tlv(7, b"\x04")
+        + _tlv(8, struct.pack(">Q", 123456789))
     )
     body = _hand_body(vid="Tram-7ž".encode(), seq=41, tlvs=tlvs)
     assert encode_report(report, seq=41) == _wire(body)
@@ -498,7 +505,7 @@ def test_feed_accepts_bytes_like_and_keeps_partial_frame_pending() -> None:
 def test_decoder_bug_is_counted_not_raised(monkeypatch: pytest.MonkeyPatch) -> None:
     import antikol.ingest.protocol as protocol
 
-    def broken(body: bytes) -> tuple[VehicleReport, int]:
+    def broken(body: bytes, verifier: object = None) -> tuple[VehicleReport, int]:
         raise RuntimeError("bug")
 
     monkeypatch.setattr(protocol, "_decode_body", broken)

@@ -1,3 +1,6 @@
+from collections import Counter
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -70,25 +73,55 @@ def test_table_register_update_stale_duplicate_expire():
     assert table.stats["expired"] == 1
 
 
+def offer(table, vid, x, y, *, t=0.0):
+    """A newcomer reports twice (a full table wants a confirmed newcomer)."""
+    res = table.update(at(vid, x, y, t=t))
+    if res.outcome == "rejected_full":
+        res = table.update(at(vid, x, y, t=t + 0.5))
+    return res
+
+
 def test_table_full_keeps_the_nearest_and_never_drops_own():
     table = VehicleTable(capacity=2, own_id="OWN")
     table.update(at("OWN", 0, 0))
     table.update(at("far", 0, 200))
     table.update(at("mid", 0, 100))
-    res = table.update(at("near", 0, 50))
+    first = table.update(at("near", 0, 50))
+    assert first.outcome == "rejected_full" and first.evicted is None  # not yet confirmed
+    res = table.update(at("near", 0, 52, t=0.5))
     assert res.outcome == "registered" and res.evicted == "far"
-    res = table.update(at("farther", 0, 500))
+    res = offer(table, "farther", 0, 500)
     assert res.outcome == "rejected_full"
     assert set(table.vehicle_ids()) == {"OWN", "mid", "near"}
-    assert table.stats["rejected_full"] == 1 and table.stats["evicted"] == 1
+    assert table.stats["rejected_full"] == 3 and table.stats["evicted"] == 1
+    assert table.stats["unconfirmed"] == 2
 
 
 def test_table_full_without_own_position_drops_least_recent():
     table = VehicleTable(capacity=2)
     table.update(at("a", 0, 10, t=0.0))
     table.update(at("b", 0, 20, t=1.0))
-    res = table.update(at("c", 0, 30, t=2.0))
+    res = offer(table, "c", 0, 30, t=2.0)
     assert res.evicted == "a"
+
+
+def test_one_forged_frame_or_a_jumping_newcomer_never_evicts():
+    table = VehicleTable(capacity=2, own_id="OWN")
+    table.update(at("OWN", 0, 0))
+    table.update(at("real1", 0, 200))
+    table.update(at("real2", 0, 250))
+    # 1000 one-shot phantoms nearer than both real trams: none gets in
+    for i in range(1000):
+        assert table.update(at(f"ph{i}", 0, 20, t=0.1)).outcome == "rejected_full"
+    # a newcomer whose second report is 5 km from its first is not confirmed
+    table.update(at("jump", 0, 30, t=0.2))
+    assert table.update(at("jump", 5000, 30, t=0.4)).outcome == "rejected_full"
+    # nor one without a position fix
+    nofix = VehicleReport("nofix", 0.5, *reversed(GDANSK.to_lonlat(0, 10)), 5.0, 0.0, fix_quality=0)
+    table.update(nofix)
+    assert table.update(replace(nofix, t=0.6)).outcome == "rejected_full"
+    assert set(table.vehicle_ids()) == {"OWN", "real1", "real2"}
+    assert table.stats["evicted"] == 0 and table.stats["rejected_implausible"] >= 1
 
 
 @settings(max_examples=60)
@@ -106,7 +139,7 @@ def test_a_dropped_vehicle_is_never_closer_than_a_kept_one(capacity, positions):
     for i, (x, y) in enumerate(positions):
         vid = f"v{i}"
         dist[vid] = np.hypot(x, y)
-        res = table.update(at(vid, x, y))
+        res = offer(table, vid, x, y)
         if res.outcome == "rejected_full":
             dropped.add(vid)
         if res.evicted:
@@ -146,3 +179,94 @@ def test_own_vehicle_is_still_assessed_after_an_own_gps_outage():
         an.update(at("B", 0, 100, t=float(t), speed=0.0))
     a = an.assess()  # raised UnknownVehicleError when the table dropped its own vehicle
     assert a.own_id == "A"
+
+
+# --------------------------------------------------------------------------- the clock
+
+
+def test_a_report_from_the_far_future_never_takes_the_own_vehicle_out_of_service():
+    from antikol import Analyser
+
+    an = Analyser(own_id="A")
+    an.update(at("A", 0, 0, t=100.0))
+    an.update(at("B", 0, 100, t=100.0))
+    res = an.update(at("X", 0, 50, t=1e9))  # forged, or a unit with a wrong clock
+    assert res.outcome == "out_of_window" and not res.accepted
+    assert an.table.clock == 100.0
+    for t in range(101, 130):
+        an.update(at("A", 0, 8 * (t - 100), t=float(t)))
+        an.update(at("B", 0, 100 + 8 * (t - 100), t=float(t)))
+        a = an.assess()  # raised UnknownVehicleError when the clock jumped to 1e9
+        assert a.own_id == "A" and "B" in an.table
+    assert an.table.stats["out_of_window"] == 1
+
+
+def test_reports_before_the_own_fix_are_judged_when_the_clock_starts():
+    table = VehicleTable(own_id="A")
+    assert table.update(at("B", 0, 50, t=100.0)).outcome == "registered"
+    assert table.update(at("X", 0, 60, t=5000.0)).outcome == "registered"  # provisional
+    assert table.clock == -np.inf  # received reports never set it on board
+    res = table.update(at("A", 0, 0, t=101.0))
+    assert res.expired == ("X",) and set(table.vehicle_ids()) == {"A", "B"}
+    assert table.update(at("X", 0, 60, t=5001.0)).outcome == "out_of_window"
+
+
+def test_on_board_the_caller_drives_the_clock_through_an_own_gps_outage():
+    table = VehicleTable(own_id="A")
+    table.update(at("A", 0, 0, t=0.0))
+    for t in range(1, 60):
+        table.expire(float(t))  # the unit's local clock
+        assert table.update(at("B", 0, 50, t=float(t))).accepted
+    assert table.clock == 59.0 and "A" in table
+
+
+def test_control_room_clock_is_the_median_of_the_senders():
+    table = VehicleTable(capacity=None)
+    for i in range(5):
+        table.update(at(f"V{i}", 0, 100 * i, t=100.0))
+    # a sender whose clock is 20 s fast is accepted, but does not move the clock
+    assert table.update(at("FAST", 0, 900, t=120.0)).accepted
+    assert table.clock == 100.0
+    assert table.update(at("WILD", 0, 900, t=1e9)).outcome == "out_of_window"
+    for i in range(5):
+        table.update(at(f"V{i}", 0, 100 * i, t=101.0))
+    assert table.clock == 101.0 and len(table) == 6
+
+
+def test_control_room_clock_recovers_from_a_first_report_dated_far_ahead():
+    table = VehicleTable(capacity=None)
+    table.update(at("WILD", 0, 0, t=1e9))
+    assert table.clock == 1e9
+    outcomes = [table.update(at(f"V{i}", 0, 10 * i, t=100.0)).outcome for i in range(3)]
+    assert outcomes[:2] == ["stale", "stale"]
+    assert table.stats["clock_reset"] == 1 and table.clock == 100.0
+    assert "WILD" not in table
+    assert table.update(at("V0", 0, 0, t=101.0)).accepted
+
+
+def test_new_ids_per_second_are_capped_in_a_control_room():
+    table = VehicleTable(capacity=None, max_new_ids=100)
+    outcomes = Counter(table.update(at(f"N{i}", 0, i, t=0.0)).outcome for i in range(10_000))
+    assert outcomes == {"registered": 100, "rejected_cap": 9900}
+    assert table.stats["rejected_cap"] == 9900
+    # known vehicles keep updating (and move the clock); the next second admits 100 more
+    assert all(table.update(at(f"N{i}", 0, i, t=1.0)).outcome == "updated" for i in range(100))
+    assert sum(table.update(at(f"M{i}", 0, i, t=1.0)).accepted for i in range(500)) == 100
+    assert len(VehicleTable(capacity=None)._reports) == 0
+    assert VehicleTable(capacity=None).max_new_ids == 1000
+    assert VehicleTable(capacity=32).max_new_ids is None
+
+
+def test_expiry_of_many_vehicles_is_incremental():
+    table = VehicleTable(capacity=None, max_new_ids=None)
+    for i in range(20_000):
+        table.update(at(f"V{i}", 0, i % 500, t=float(i // 1000)))
+    # 20 s of reports, 1000 new vehicles a second: only the last 10 s are kept
+    assert len(table) == 11_000
+    assert len(table._heap) <= 4 * len(table) + 64
+
+
+def test_table_rejects_bad_clock_options():
+    for bad in (dict(clock_window_s=0), dict(max_new_ids=0), dict(new_id_period_s=-1)):
+        with pytest.raises(ValueError):
+            VehicleTable(**bad)

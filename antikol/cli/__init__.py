@@ -1,4 +1,4 @@
-"""Command line interface: ``antikol replay | simulate | compare | demo``.
+"""Command line interface: ``antikol replay | simulate | compare | demo | onboard``.
 
 One module per sub-command registers its parser (``add_parser``) and the function that
 runs it; :func:`main` dispatches.
@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from antikol.cli import evaluate, replay
+from antikol.cli import evaluate, onboard, replay
 from antikol.errors import AntikolError
 
 __all__ = ["main"]
@@ -27,6 +27,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     replay.add_parser(sub)
     evaluate.add_parsers(sub)
+    onboard.add_parser(sub)
     return p
 
 

@@ -26,9 +26,25 @@ Time
     ``t`` is seconds since the Unix epoch, UTC, from RMC's date (``ddmmyy``, years
     1969–2068) and time of day; a report at midnight gets the new date from its own RMC, so
     the day rollover needs no special handling. GGA is matched to RMC by time of day.
-    A report whose ``t`` is not later than the previous report's is skipped
-    (``"duplicate"`` when equal, e.g. a GPRMC and a GNRMC of the same fix;
-    ``"time_backwards"`` when earlier).
+    A report whose ``t`` equals the previous report's is skipped (``"duplicate"``, e.g. a
+    GPRMC and a GNRMC of the same fix).
+Time jumps
+    A report is emitted when its ``t`` follows the previous report's by more than 0 and
+    at most ``max_time_jump_s`` (60 s by default). A report earlier than the previous one
+    (``"time_backwards"``) or later by more than that (``"time_jump"``: a sentence dated a
+    year ahead, or the first fix after a long outage) is held back as the start of a new
+    timeline; if the next report follows *it* within ``max_time_jump_s``, the receiver
+    has really moved on (or back): that report is emitted, the new timeline adopted and
+    the event counted in :attr:`NmeaStats.flagged` as ``"time_reset"``. So one sentence
+    with a wrong date costs one epoch, never every later one; a genuine jump costs the
+    first epoch after it.
+Midnight
+    A receiver that changes the date late (``000000`` still with yesterday's date) or
+    early (``235959`` with tomorrow's) gets the date that makes the time follow the
+    previous report's within two minutes (flagged ``"date_late"`` or ``"date_early"``).
+    A leap second (``235960``) is kept: it is dated in the last millisecond of its day
+    (``t`` = midnight - 1 ms + fraction / 1000), after every report of ``235959.x`` and
+    before the next day's first, and flagged ``"leap_second"``.
 Epoch closing
     The epoch in progress is closed, and its report emitted, at the first of:
 
@@ -65,7 +81,8 @@ Counted per sentence in :attr:`NmeaStats.skipped` (a line without any ``$`` coun
 the sentences of a skipped epoch all count under the epoch's reason):
 ``"empty"``, ``"not_nmea"``, ``"garbled"``, ``"checksum"``, ``"unsupported"``,
 ``"void_fix"``, ``"no_time"``, ``"invalid_value"``, ``"no_speed"``, ``"no_course"``,
-``"unpaired"``, ``"duplicate"``, ``"time_backwards"`` (see :data:`SKIP_REASONS`).
+``"unpaired"``, ``"duplicate"``, ``"time_backwards"``, ``"time_jump"`` (see
+:data:`SKIP_REASONS`).
 
 Writer
 ------
@@ -82,15 +99,25 @@ import re
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from datetime import UTC, date, datetime, time
+from datetime import UTC, datetime, time
 from pathlib import Path
-from typing import Final, Literal
+from typing import Final
 
 from pynmeagps import VALCKSUM, NMEAMessage, NMEAReader
 from pynmeagps.exceptions import NMEAMessageError, NMEAParseError, NMEATypeError
 from pynmeagps.nmeahelpers import calc_checksum, get_parts
 
 from antikol.errors import InputFileError, InvalidReportError
+from antikol.ingest.nmea_fields import (
+    _LEAP,
+    _coordinate,
+    _course,
+    _raw,
+    _rmc_date,
+    _Skip,
+    _speed,
+    _time_of_day,
+)
 from antikol.ingest.nmea_spec import (
     GNSS_TALKERS,
     KMH_PER_MPS,
@@ -100,7 +127,7 @@ from antikol.ingest.nmea_spec import (
     UNIX_EPOCH,
 )
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
-from antikol.report import MAX_SPEED_MPS, VehicleReport
+from antikol.report import VehicleReport
 from antikol.thresholds import STANDING_SPEED_MPS
 
 # GNSS_TALKERS, KMH_PER_MPS and KNOT_MPS (nmea_spec) and the format_* writers (nmea_writer)
@@ -143,15 +170,16 @@ SKIP_REASONS: Final[dict[str, str]] = {
     "unpaired": "GGA or VTG whose epoch has no usable RMC, or that came after it closed",
     "duplicate": "second sentence of a kind in one epoch, or a report time repeated",
     "time_backwards": "report time earlier than the previous report's",
+    "time_jump": "report time later than the previous report's by more than max_time_jump_s",
 }
 
 #: Sentence types used, with the fields they need at least (through date, HDOP, km/h unit).
 _MIN_FIELDS: Final = {"RMC": 9, "GGA": 8, "VTG": 8}
 _SENTENCE = re.compile(r"\$(?P<content>[^$*]*)\*(?P<checksum>[0-9A-Fa-f]{2})")
-_HHMMSS = re.compile(r"\d{6}(?:\.\d{1,6})?")
-_DDMMYY = re.compile(r"\d{6}")
+#: A late or early date change is recognised within this time of midnight, s.
+_MIDNIGHT_S: Final = 120.0
+_DAY_S: Final = 86400.0
 _NOT_IN_FIELDS = re.compile(r"[\s_]")  # Python's float()/int() would tolerate them
-_DDMM = re.compile(r"(?P<deg>\d{2,3})(?P<min>\d{2}\.\d+)")
 _STRIP = " \t\r\n\x00"
 
 
@@ -196,15 +224,6 @@ class NmeaStats:
             "skipped": dict(sorted(self.skipped.items())),
             "flagged": dict(sorted(self.flagged.items())),
         }
-
-
-class _Skip(Exception):
-    """Internal: a sentence is rejected for ``reason``."""
-
-    def __init__(self, reason: str, detail: str) -> None:
-        super().__init__(detail)
-        self.reason = reason
-        self.detail = detail
 
 
 @dataclass(slots=True)
@@ -252,6 +271,9 @@ class NmeaReader:
         Distance from the vehicle front back to the antenna put in every report, metres.
     stopped_speed_mps : float, optional
         Below this speed (m/s) a missing course is tolerated (default 0.5).
+    max_time_jump_s : float, optional
+        Largest step between two reports taken without confirmation, s (default 60; see
+        *Time jumps* in the module documentation).
 
     Raises
     ------
@@ -267,6 +289,7 @@ class NmeaReader:
         length_m: float | None = None,
         antenna_offset_m: float | None = None,
         stopped_speed_mps: float = STOPPED_SPEED_MPS,
+        max_time_jump_s: float = 60.0,
     ) -> None:
         # Validate the constant fields once, with the report's own rules.
         VehicleReport(
@@ -286,7 +309,11 @@ class NmeaReader:
         self.vehicle_id = vehicle_id
         self.length_m = length_m
         self.antenna_offset_m = antenna_offset_m
+        if not (math.isfinite(max_time_jump_s) and max_time_jump_s > 0.0):
+            raise InvalidReportError("max_time_jump_s", max_time_jump_s, "must be finite and > 0 s")
         self.stopped_speed_mps = float(stopped_speed_mps)
+        self.max_time_jump_s = float(max_time_jump_s)
+        self._candidate_t: float | None = None
         self._stats = NmeaStats()
         self._pending: _Epoch | None = None
         self._stream_has_gga = False
@@ -425,14 +452,15 @@ class NmeaReader:
         if not MIN_YEAR <= day.year <= MAX_YEAR:  # pragma: no cover - strptime %y range
             raise _Skip("no_time", f"RMC year {day.year}")
         t = (datetime.combine(day, tod, tzinfo=UTC) - UNIX_EPOCH).total_seconds()
+        if tod.microsecond >= 999000 and _LEAP.fullmatch(_raw(msg, 0)):
+            self._stats.flagged["leap_second"] += 1
+        t = self._midnight(t, tod)
         lat = _coordinate(msg, 2, "lat", "NS", 90.0)
         lon = _coordinate(msg, 4, "lon", "EW", 180.0)
         speed = _speed(getattr(msg, "spd", None), "kn", "RMC speed")
         course = _course(getattr(msg, "cog", None), "RMC course")
-        if self._last_t is not None and t <= self._last_t:
-            if t == self._last_t:
-                raise _Skip("duplicate", f"time {t} already reported")
-            raise _Skip("time_backwards", f"time {t} before {self._last_t}")
+        if t == self._last_t:
+            raise _Skip("duplicate", f"time {t} already reported")
         epoch = self._epoch_for(tod, out)
         if epoch.void:
             self._skip("void_fix", "RMC of a void epoch")
@@ -556,10 +584,7 @@ class NmeaReader:
         course = rmc.course_deg if rmc.course_deg is not None else vtg.course_deg
         if speed is None:
             raise _Skip("no_speed", f"epoch {epoch.tod} has no speed")
-        if self._last_t is not None and rmc.t <= self._last_t:
-            if rmc.t == self._last_t:
-                raise _Skip("duplicate", f"time {rmc.t} already reported")
-            raise _Skip("time_backwards", f"time {rmc.t} before {self._last_t}")
+        self._check_time(rmc.t)
         course_missing = course is None
         if course is None:
             if speed >= self.stopped_speed_mps:
@@ -587,71 +612,47 @@ class NmeaReader:
             self._last_course = report.course_deg
         return report
 
+    def _midnight(self, t: float, tod: time) -> float:
+        """Correct a date changed late or early at midnight (see *Midnight*)."""
+        last = self._last_t
+        if last is None or abs(t - last) < _DAY_S / 2:
+            return t
+        seconds = tod.hour * 3600 + tod.minute * 60 + tod.second
+        if seconds < _MIDNIGHT_S and 0 < t + _DAY_S - last <= _MIDNIGHT_S:
+            self._stats.flagged["date_late"] += 1
+            return t + _DAY_S
+        if seconds > _DAY_S - _MIDNIGHT_S and 0 < t - _DAY_S - last <= _MIDNIGHT_S:
+            self._stats.flagged["date_early"] += 1
+            return t - _DAY_S
+        return t
+
+    def _check_time(self, t: float) -> None:
+        """Accept ``t`` as the next report time or raise (see *Time jumps*)."""
+        last = self._last_t
+        if last is None or 0.0 < t - last <= self.max_time_jump_s:
+            self._candidate_t = None
+            return
+        if t == last:
+            raise _Skip("duplicate", f"time {t} already reported")
+        cand = self._candidate_t
+        if cand is not None and 0.0 < t - cand <= self.max_time_jump_s:
+            self._candidate_t = None
+            self._stats.flagged["time_reset"] += 1
+            logger.warning(
+                "%s: receiver time moved from %.3f to %.3f and stayed there: adopted",
+                self.vehicle_id,
+                last,
+                t,
+            )
+            return
+        self._candidate_t = t
+        if t < last:
+            raise _Skip("time_backwards", f"time {t} before {last}")
+        raise _Skip("time_jump", f"time {t} is {t - last:.1f} s after {last}")
+
     def _skip(self, reason: str, detail: str, count: int = 1) -> None:
         self._stats.skipped[reason] += count
         logger.debug("%s: skipped %d (%s): %s", self.vehicle_id, count, reason, detail)
-
-
-def _raw(msg: NMEAMessage, index: int) -> str:
-    payload = msg.payload
-    return str(payload[index]) if index < len(payload) else ""
-
-
-def _time_of_day(msg: NMEAMessage) -> time | None:
-    """UTC time of day of an RMC or GGA (first field ``hhmmss[.ss]``), ``None`` if invalid."""
-    value = getattr(msg, "time", None)
-    if not (isinstance(value, time) and _HHMMSS.fullmatch(_raw(msg, 0))):
-        return None
-    return value
-
-
-def _rmc_date(msg: NMEAMessage) -> date | None:
-    """Date of an RMC (ninth field ``ddmmyy``), ``None`` if invalid."""
-    value = getattr(msg, "date", None)
-    if not (isinstance(value, date) and _DDMMYY.fullmatch(_raw(msg, 8))):
-        return None
-    return value
-
-
-def _coordinate(msg: NMEAMessage, index: int, name: str, hemi_name: str, limit: float) -> float:
-    """Signed degrees from the raw ``(d)ddmm.mmmm`` field at payload ``index``."""
-    raw = _raw(msg, index)
-    hemi = getattr(msg, hemi_name, "")
-    value = getattr(msg, name, "")
-    match = _DDMM.fullmatch(raw)
-    if match is None or not isinstance(value, float):
-        raise _Skip("garbled", f"{name} {raw!r}")
-    negative, positive = ("S", "N") if name == "lat" else ("W", "E")
-    if hemi not in (negative, positive):
-        raise _Skip("garbled", f"{hemi_name} {hemi!r}")
-    # 60.0 is tolerated: some writers (pynmeagps's own ddd2dmm) round 59.999995 up to it.
-    if float(match["min"]) > 60.0 or abs(value) > limit:
-        raise _Skip("invalid_value", f"{name} {raw!r}")
-    return -abs(value) if hemi == negative else abs(value)
-
-
-def _speed(value: object, unit: Literal["kn", "km/h"], what: str) -> float | None:
-    """Speed in m/s from a decoded field in knots or km/h (``None`` when empty).
-
-    Knots are multiplied by 1852/3600, km/h divided by 3.6.
-    """
-    if value is None or value == "":
-        return None
-    if not (isinstance(value, float) and math.isfinite(value) and value >= 0.0):
-        raise _Skip("invalid_value", f"{what} {value!r} {unit}")
-    speed = value * KNOT_MPS if unit == "kn" else value / KMH_PER_MPS
-    if speed > MAX_SPEED_MPS:
-        raise _Skip("invalid_value", f"{what} {value!r} {unit} above {MAX_SPEED_MPS:g} m/s")
-    return speed
-
-
-def _course(value: object, what: str) -> float | None:
-    """Course in degrees from a decoded field (``None`` when empty)."""
-    if value is None or value == "":
-        return None
-    if not (isinstance(value, float) and 0.0 <= value <= 360.0):
-        raise _Skip("invalid_value", f"{what} {value!r}")
-    return 0.0 if value == 360.0 else value
 
 
 # --------------------------------------------------------------------------- files

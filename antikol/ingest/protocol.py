@@ -20,7 +20,7 @@ Body (before COBS; all integers big-endian, ``n`` = vehicle id length in bytes):
 offset   bytes field
 ======== ===== ======================================================================
 0        1     major version (``PROTOCOL_MAJOR`` = 1); incompatible layouts change it
-1        1     minor version (``PROTOCOL_MINOR`` = 0); only adds optional TLV types
+1        1     minor version (``PROTOCOL_MINOR`` = 1); only adds optional TLV types
 2        2     ``L``: body length without the CRC trailer, bytes (uint16)
 4        1     ``n``: vehicle id length, 1..32 bytes (uint8)
 5        n     vehicle id, UTF-8
@@ -46,13 +46,36 @@ type length value
 4    9      track_position: edge_id uint32, offset uint32 mm, direction int8 (+1/-1)
 5    4*k    route: k = 0..255 edge ids, uint32 each, in running order
 6    2      hdop: uint16, units of 0.01 (values above 655.35 are sent as 655.35)
-7    1      fix_quality: uint8
+7    1      fix_quality: uint8 (0: no position fix, the position is the last known one)
+8    8      odometer_m: uint64, millimetres (minor version 1)
+9    3+m    authentication (minor version 1), always the *last* TLV: scheme uint8,
+            key id uint16, then the m-byte tag (see below)
 ==== ====== ==========================================================================
 
-A report with a 6-byte id and no optional fields is a 39-byte body and a 42-byte frame;
-with every optional field and a 20-edge route it is 164 bytes. The largest possible frame
-(32-byte id, every field, 255-edge route) is a 1127-byte body and at most 1134 bytes on
-the wire.
+A report with a 6-byte id and no optional fields is a 39-byte body and a 42-byte frame
+(an HMAC tag adds 38 bytes, an Ed25519 signature 70);
+with every optional field and a 20-edge route it is 175 bytes. The largest possible frame
+(32-byte id, every field, 255-edge route) is a 1138-byte body (1208 with an Ed25519
+signature) and at most 1215 bytes on the wire.
+
+Authentication
+--------------
+CRC-32 detects noise, not forgery: anyone can compute it. A sender with a key appends TLV 9,
+whose tag covers the whole body before the tag: header (with the final ``L``), every field,
+the TLV 9 header, scheme and key id. The CRC then covers the tag too. Schemes:
+
+====== ============ ===== ================================================================
+scheme name         m     tag
+====== ============ ===== ================================================================
+1      hmac-sha256  32    HMAC-SHA-256 (RFC 2104) with a fleet key chosen by the key id
+2      ed25519      64    Ed25519 signature (RFC 8032) with the sending vehicle's own key
+====== ============ ===== ================================================================
+
+Keys, signers and verifiers are in :mod:`antikol.ingest.auth`. A decoder given a verifier
+(:class:`FrameVerifier`) rejects frames without TLV 9 (``"unsigned"``), with a key it does
+not know (``"unknown_key"``) or a tag that does not verify (``"bad_signature"``); without a
+verifier TLV 9 is ignored (the paper's unauthenticated protocol). Replays of genuine frames
+are a separate check (:mod:`antikol.ingest.guard`).
 
 Versioning and compatibility
 ----------------------------
@@ -69,7 +92,7 @@ extends existing ones. Each known type may appear at most once.
 
 Why CRC-32
 ----------
-Bodies are 34 to 1127 bytes. CRC-32 (IEEE 802.3 polynomial, ``zlib.crc32``, C speed,
+Bodies are 34 to 1208 bytes. CRC-32 (IEEE 802.3 polynomial, ``zlib.crc32``, C speed,
 standard library) detects every error of up to 3 flipped bits in bodies of this size,
 every burst up to 32 bits, and lets random corruption (e.g. radio noise or garbage
 between frames that happens to look like a frame) through with probability about
@@ -92,6 +115,7 @@ Decoded values are the encoded values rounded (half to even) to the wire resolut
   ``length_m`` below 0.5 mm is sent as 1 mm (it must stay positive). Values above
   4294967.295 m cannot be encoded (:class:`EncodeError`).
 * ``hdop``: 0.01, saturating at 655.35.
+* ``odometer_m``: 1 mm; values above 2**64 - 1 mm cannot be encoded (:class:`EncodeError`).
 * ``vehicle_id``, ``seq``, ``braking``, ``route``, ``track_position.edge_id`` and
   ``direction``, ``fix_quality``: exact.
 
@@ -116,6 +140,9 @@ delimiters that is not a valid frame is counted once, by the first applicable re
 ``bad_payload``
     Intact frame whose structure is inconsistent (length field, TLV bounds, a known TLV
     of the wrong size or repeated).
+``unsigned``, ``unknown_key``, ``bad_signature``
+    Only with a verifier: no authentication TLV, an unknown key or scheme, a tag that does
+    not verify (see *Authentication*).
 ``invalid_value``
     Intact, well-formed frame whose values make no valid
     :class:`~antikol.report.VehicleReport` (e.g. latitude above 90 degrees).
@@ -131,12 +158,14 @@ import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Final
+from typing import Final, Protocol
 
 from antikol.errors import InvalidReportError, ProtocolError
+from antikol.ingest.cobs import FrameError, cobs_decode, cobs_encode
 from antikol.report import BRAKE_STATES, ReportedTrackPosition, VehicleReport
 
 __all__ = [
+    "AUTH_SCHEMES",
     "FRAME_DELIMITER",
     "MAX_FRAME_BYTES",
     "PROTOCOL_MAJOR",
@@ -145,6 +174,8 @@ __all__ = [
     "DecoderStats",
     "EncodeError",
     "FrameError",
+    "FrameSigner",
+    "FrameVerifier",
     "StreamDecoder",
     "cobs_decode",
     "cobs_encode",
@@ -158,12 +189,14 @@ logger = logging.getLogger(__name__)
 #: Major protocol version written and accepted by this module.
 PROTOCOL_MAJOR: Final = 1
 #: Minor protocol version written by this module (any minor version is accepted).
-PROTOCOL_MINOR: Final = 0
+PROTOCOL_MINOR: Final = 1
 #: The frame delimiter; it never occurs inside a COBS-encoded body.
 FRAME_DELIMITER: Final = b"\x00"
 #: Largest COBS-encoded body (delimiters excluded) accepted, bytes. This version produces at
-#: most 1132 bytes; the margin is for optional fields added by newer minor versions.
+#: most 1213 bytes; the margin is for optional fields added by newer minor versions.
 MAX_FRAME_BYTES: Final = 2048
+#: Authentication schemes of TLV 9: code -> (name, tag length in bytes).
+AUTH_SCHEMES: Final = {1: ("hmac-sha256", 32), 2: ("ed25519", 64)}
 #: Every reason a frame can be rejected for, in the order the checks are made.
 REJECT_REASONS: Final = (
     "too_long",
@@ -172,19 +205,25 @@ REJECT_REASONS: Final = (
     "crc",
     "bad_version",
     "bad_payload",
+    "unsigned",
+    "unknown_key",
+    "bad_signature",
     "invalid_value",
     "internal_error",
 )
 
 _UINT32_MAX: Final = 0xFFFFFFFF
 _UINT16_MAX: Final = 0xFFFF
+_UINT64_MAX: Final = 0xFFFFFFFFFFFFFFFF
 _HEADER = struct.Struct(">BBH")  # major, minor, L
 _FIXED = struct.Struct(">dIiiHH")  # t, seq, lat, lon, speed, course
 _TLV = struct.Struct(">BH")  # type, length
 _CRC = struct.Struct(">I")
 _U32 = struct.Struct(">I")
 _U16 = struct.Struct(">H")
+_U64 = struct.Struct(">Q")
 _TRACK = struct.Struct(">IIb")  # edge id, offset mm, direction
+_AUTH = struct.Struct(">BH")  # scheme, key id
 _MIN_BODY: Final = _HEADER.size + _CRC.size
 
 _T_BRAKING: Final = 1
@@ -194,7 +233,10 @@ _T_TRACK: Final = 4
 _T_ROUTE: Final = 5
 _T_HDOP: Final = 6
 _T_FIX: Final = 7
-#: Value length of each known TLV type, bytes; 0 means "any multiple of 4" (the route).
+_T_ODOMETER: Final = 8
+_T_AUTH: Final = 9
+#: Value length of each known TLV type, bytes; 0 means "any multiple of 4" (the route);
+#: -1 means "3 or more" (authentication).
 _TLV_SIZES: Final = {
     _T_BRAKING: 1,
     _T_LENGTH: 4,
@@ -203,33 +245,40 @@ _TLV_SIZES: Final = {
     _T_ROUTE: 0,
     _T_HDOP: 2,
     _T_FIX: 1,
+    _T_ODOMETER: 8,
+    _T_AUTH: -1,
 }
 _BRAKE_CODES: Final = {state: code for code, state in enumerate(BRAKE_STATES)}
-_CODE_BYTES: Final = tuple(bytes((i,)) for i in range(256))
 
 
-class FrameError(ProtocolError):
-    """A received frame was rejected.
+class FrameSigner(Protocol):
+    """What :func:`encode_report` needs to authenticate a frame (see
+    :mod:`antikol.ingest.auth` for the implementations)."""
 
-    Parameters
-    ----------
-    reason : str
-        One of :data:`REJECT_REASONS`.
-    detail : str
-        Human-readable explanation (offsets, field names, values).
+    @property
+    def scheme(self) -> int:
+        """Scheme code, a key of :data:`AUTH_SCHEMES`."""
+        ...
 
-    Attributes
-    ----------
-    reason : str
-        The rejection reason, as counted by :class:`StreamDecoder`.
-    detail : str
-        The explanation.
-    """
+    @property
+    def key_id(self) -> int:
+        """Key id sent in the frame, 0..65535."""
+        ...
 
-    def __init__(self, reason: str, detail: str) -> None:
-        self.reason = reason
-        self.detail = detail
-        super().__init__(f"{reason}: {detail}")
+    def sign(self, data: bytes) -> bytes:
+        """The tag over ``data`` (as long as :data:`AUTH_SCHEMES` says)."""
+        ...
+
+
+class FrameVerifier(Protocol):
+    """What :func:`decode_frame` and :class:`StreamDecoder` need to check a frame's tag."""
+
+    def verify(
+        self, vehicle_id: bytes, scheme: int, key_id: int, signed: bytes, tag: bytes
+    ) -> str | None:
+        """None if ``tag`` authenticates ``signed`` for this sender, else the reason
+        (``"unknown_key"`` or ``"bad_signature"``)."""
+        ...
 
 
 class EncodeError(ProtocolError):
@@ -257,100 +306,6 @@ class EncodeError(ProtocolError):
         super().__init__(f"cannot encode {field}={value!r}: {reason}")
 
 
-# --------------------------------------------------------------------------- COBS
-
-
-def cobs_encode(data: bytes | bytearray | memoryview) -> bytes:
-    """Encode bytes with Consistent Overhead Byte Stuffing.
-
-    Parameters
-    ----------
-    data : bytes-like
-        Any bytes, ``0x00`` included.
-
-    Returns
-    -------
-    bytes
-        The encoding: contains no ``0x00`` and is ``len(data) + 1`` to
-        ``len(data) + 1 + len(data) // 254`` bytes long (``b"\\x01"`` for empty input).
-    """
-    segments = bytes(data).split(b"\x00")
-    if max(map(len, segments)) < 254:  # common case: one block per zero-free segment
-        return b"".join([_CODE_BYTES[len(seg) + 1] + seg for seg in segments])
-    out = bytearray()
-    last = len(segments) - 1
-    for i, seg in enumerate(segments):
-        n = len(seg)
-        pos = 0
-        while n - pos >= 254:  # a full block: code 0xFF, no implied zero after it
-            out.append(0xFF)
-            out += seg[pos : pos + 254]
-            pos += 254
-        # The block ending this segment (its code implies the zero that followed it);
-        # omitted only after a final non-empty segment that ended on a full block.
-        if i != last or pos < n or n == 0:
-            out.append(n - pos + 1)
-            out += seg[pos:]
-    return bytes(out)
-
-
-def cobs_decode(data: bytes | bytearray | memoryview) -> bytes:
-    """Decode Consistent Overhead Byte Stuffing.
-
-    Parameters
-    ----------
-    data : bytes-like
-        One COBS-encoded block, without delimiters.
-
-    Returns
-    -------
-    bytes
-        The decoded bytes.
-
-    Raises
-    ------
-    FrameError
-        Reason ``"cobs"`` if ``data`` contains ``0x00``; reason ``"truncated"`` if a
-        block runs past the end of ``data`` or ``data`` is empty.
-    """
-    data = bytes(data)
-    if b"\x00" in data:
-        raise FrameError("cobs", f"0x00 at offset {data.index(0)} inside a COBS block")
-    n = len(data)
-    if n == 0:
-        raise FrameError("truncated", "empty COBS block")
-    # Fast path: without 0xFF codes every code byte but the first decodes to 0x00.
-    buf = bytearray(data)
-    i = 0
-    while i < n:
-        code = buf[i]
-        if code == 0xFF:
-            return _cobs_decode_general(data)
-        buf[i] = 0
-        i += code
-    if i > n:
-        raise FrameError("truncated", f"last COBS block needs {i - n} more byte(s)")
-    del buf[0]
-    return bytes(buf)
-
-
-def _cobs_decode_general(data: bytes) -> bytes:
-    """Decode COBS ``data`` that is non-empty and free of ``0x00``."""
-    n = len(data)
-    out = bytearray()
-    i = 0
-    while i < n:
-        code = data[i]
-        end = i + code
-        if end > n:
-            raise FrameError("truncated", f"COBS block at offset {i} needs {end - n} more byte(s)")
-        out += data[i + 1 : end]
-        i = end
-        if code != 0xFF and i < n:
-            out.append(0)
-    return bytes(out)
-
-
 # --------------------------------------------------------------------------- encoding
 
 
@@ -370,10 +325,10 @@ def next_seq(seq: int) -> int:
     return (seq + 1) & _UINT32_MAX
 
 
-def _millimetres(field: str, value: float) -> int:
+def _millimetres(field: str, value: float, limit: int = _UINT32_MAX) -> int:
     mm = round(value * 1000.0)
-    if not 0 <= mm <= _UINT32_MAX:
-        raise EncodeError(field, value, "outside 0..4294967.295 m (uint32 millimetres)")
+    if not 0 <= mm <= limit:
+        raise EncodeError(field, value, f"outside 0..{limit / 1000.0:.3f} m (millimetres)")
     return mm
 
 
@@ -382,7 +337,9 @@ def _tlv(out: bytearray, typ: int, value: bytes) -> None:
     out += value
 
 
-def encode_report(report: VehicleReport, *, seq: int | None = None) -> bytes:
+def encode_report(
+    report: VehicleReport, *, seq: int | None = None, signer: FrameSigner | None = None
+) -> bytes:
     """Encode one report as a complete frame, delimiters included.
 
     Parameters
@@ -393,6 +350,8 @@ def encode_report(report: VehicleReport, *, seq: int | None = None) -> bytes:
     seq : int, optional
         Sequence number to send, ``0 .. 2**32 - 1``; by default ``report.seq``, or 0 if
         the report has none. Senders wrap it with :func:`next_seq`.
+    signer : FrameSigner, optional
+        Authenticates the frame (TLV 9, see *Authentication*); None sends it unsigned.
 
     Returns
     -------
@@ -403,8 +362,9 @@ def encode_report(report: VehicleReport, *, seq: int | None = None) -> bytes:
     ------
     EncodeError
         (a :class:`~antikol.errors.ProtocolError`) if a value has no representation in
-        the frame: ``seq`` outside uint32, or ``antenna_offset_m`` /
-        ``track_position.offset_m`` above 4294967.295 m. The message names the field.
+        the frame: ``seq`` outside uint32, ``antenna_offset_m`` /
+        ``track_position.offset_m`` above 4294967.295 m, ``odometer_m`` above uint64
+        millimetres, or a signer of an unknown scheme. The message names the field.
     """
     if seq is None:
         seq = report.seq if report.seq is not None else 0
@@ -444,8 +404,26 @@ def encode_report(report: VehicleReport, *, seq: int | None = None) -> bytes:
         _tlv(body, _T_HDOP, _U16.pack(min(round(report.hdop * 100.0), _UINT16_MAX)))
     if report.fix_quality is not None:
         _tlv(body, _T_FIX, bytes((report.fix_quality,)))
+    if report.odometer_m is not None:
+        odo = _millimetres("odometer_m", report.odometer_m, _UINT64_MAX)
+        _tlv(body, _T_ODOMETER, _U64.pack(odo))
 
-    _HEADER.pack_into(body, 0, PROTOCOL_MAJOR, PROTOCOL_MINOR, len(body))
+    if signer is None:
+        _HEADER.pack_into(body, 0, PROTOCOL_MAJOR, PROTOCOL_MINOR, len(body))
+    else:
+        scheme = AUTH_SCHEMES.get(signer.scheme)
+        if scheme is None:
+            raise EncodeError("signer.scheme", signer.scheme, f"not one of {sorted(AUTH_SCHEMES)}")
+        if not 0 <= signer.key_id <= _UINT16_MAX:
+            raise EncodeError("signer.key_id", signer.key_id, "outside 0..65535")
+        tag_size = scheme[1]
+        body += _TLV.pack(_T_AUTH, _AUTH.size + tag_size)
+        body += _AUTH.pack(signer.scheme, signer.key_id)
+        _HEADER.pack_into(body, 0, PROTOCOL_MAJOR, PROTOCOL_MINOR, len(body) + tag_size)
+        tag = signer.sign(bytes(body))
+        if len(tag) != tag_size:
+            raise EncodeError("signer", len(tag), f"tag must be {tag_size} bytes")
+        body += tag
     body += _CRC.pack(zlib.crc32(body))
     encoded = cobs_encode(body)
     if len(encoded) > MAX_FRAME_BYTES:  # pragma: no cover - impossible for valid reports
@@ -456,7 +434,9 @@ def encode_report(report: VehicleReport, *, seq: int | None = None) -> bytes:
 # --------------------------------------------------------------------------- decoding
 
 
-def decode_frame(frame_body: bytes | bytearray | memoryview) -> VehicleReport:
+def decode_frame(
+    frame_body: bytes | bytearray | memoryview, *, verifier: FrameVerifier | None = None
+) -> VehicleReport:
     """Decode a single frame.
 
     Parameters
@@ -465,6 +445,9 @@ def decode_frame(frame_body: bytes | bytearray | memoryview) -> VehicleReport:
         The COBS-encoded bytes between two delimiters. Leading and trailing ``0x00``
         delimiters are accepted and ignored, so the output of :func:`encode_report` can
         be passed as is.
+    verifier : FrameVerifier, optional
+        Require and check authentication (see *Authentication*); None accepts unsigned
+        frames and ignores any tag.
 
     Returns
     -------
@@ -481,10 +464,12 @@ def decode_frame(frame_body: bytes | bytearray | memoryview) -> VehicleReport:
     body = bytes(frame_body).strip(b"\x00")
     if len(body) > MAX_FRAME_BYTES:
         raise FrameError("too_long", f"{len(body)} bytes, limit {MAX_FRAME_BYTES}")
-    return _decode_body(body)[0]
+    return _decode_body(body, verifier)[0]
 
 
-def _decode_body(encoded: bytes) -> tuple[VehicleReport, int]:
+def _decode_body(
+    encoded: bytes, verifier: FrameVerifier | None = None
+) -> tuple[VehicleReport, int]:
     """Decode a COBS-encoded frame body; return the report and the skipped TLV count."""
     body = cobs_decode(encoded)
     n = len(body)
@@ -506,16 +491,14 @@ def _decode_body(encoded: bytes) -> tuple[VehicleReport, int]:
     pos = id_end + _FIXED.size
     if pos > length:
         raise FrameError("bad_payload", f"fixed fields end at {pos}, beyond length {length}")
-    try:
-        vehicle_id = body[_HEADER.size + 1 : id_end].decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise FrameError("invalid_value", f"vehicle_id is not UTF-8: {exc}") from None
     t, seq, lat_e7, lon_e7, speed_cms, course_cdeg = _FIXED.unpack_from(body, id_end)
 
     # Collect the value offsets of known TLVs first, then interpret them.
     found: dict[int, int] = {}
     skipped = 0
     while pos < length:
+        if _T_AUTH in found:
+            raise FrameError("bad_payload", f"TLV after the authentication TLV at {pos}")
         if pos + 3 > length:
             raise FrameError("bad_payload", f"TLV header at {pos} runs past length {length}")
         typ, size = _TLV.unpack_from(body, pos)
@@ -528,16 +511,26 @@ def _decode_body(encoded: bytes) -> tuple[VehicleReport, int]:
             skipped += 1  # unknown type of a newer minor version
         elif typ in found:
             raise FrameError("bad_payload", f"TLV type {typ} repeated")
+        elif expected == -1:
+            if size < _AUTH.size:
+                raise FrameError("bad_payload", f"authentication TLV of {size} bytes")
+            found[typ] = pos
         elif size != expected and (expected or size % 4):
             raise FrameError("bad_payload", f"TLV type {typ} has bad length {size}")
         else:
             found[typ] = pos
         pos = end
 
+    if verifier is not None:
+        _verify(body, length, found.get(_T_AUTH), id_end, verifier)
+    try:
+        vehicle_id = body[_HEADER.size + 1 : id_end].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise FrameError("invalid_value", f"vehicle_id is not UTF-8: {exc}") from None
     braking_code = body[found[_T_BRAKING]] if _T_BRAKING in found else 0
     if braking_code >= len(BRAKE_STATES):
         raise FrameError("invalid_value", f"braking code {braking_code} unknown")
-    length_m = antenna_m = track = route = hdop = fix_quality = None
+    length_m = antenna_m = track = route = hdop = fix_quality = odometer = None
     if found:
         if _T_LENGTH in found:
             length_m = _U32.unpack_from(body, found[_T_LENGTH])[0] / 1000.0
@@ -554,6 +547,8 @@ def _decode_body(encoded: bytes) -> tuple[VehicleReport, int]:
             hdop = _U16.unpack_from(body, found[_T_HDOP])[0] / 100.0
         if _T_FIX in found:
             fix_quality = body[found[_T_FIX]]
+        if _T_ODOMETER in found:
+            odometer = _U64.unpack_from(body, found[_T_ODOMETER])[0] / 1000.0
     try:
         report = VehicleReport(
             vehicle_id=vehicle_id,
@@ -570,10 +565,33 @@ def _decode_body(encoded: bytes) -> tuple[VehicleReport, int]:
             seq=seq,
             hdop=hdop,
             fix_quality=fix_quality,
+            odometer_m=odometer,
         )
     except InvalidReportError as exc:
         raise FrameError("invalid_value", str(exc)) from None
     return report, skipped
+
+
+def _verify(
+    body: bytes, length: int, auth_at: int | None, id_end: int, verifier: FrameVerifier
+) -> None:
+    """Check the authentication TLV of an intact body; raise FrameError if it fails."""
+    if auth_at is None:
+        raise FrameError("unsigned", "no authentication TLV")
+    scheme, key_id = _AUTH.unpack_from(body, auth_at)
+    known = AUTH_SCHEMES.get(scheme)
+    tag_at = auth_at + _AUTH.size
+    if known is None:
+        raise FrameError("unknown_key", f"authentication scheme {scheme} unknown")
+    if length - tag_at != known[1]:
+        raise FrameError("bad_signature", f"{known[0]} tag of {length - tag_at} bytes")
+    reason = verifier.verify(
+        body[_HEADER.size + 1 : id_end], scheme, key_id, body[:tag_at], body[tag_at:length]
+    )
+    if reason is not None:
+        if reason not in ("unknown_key", "bad_signature"):
+            reason = "bad_signature"
+        raise FrameError(reason, f"{known[0]} key {key_id}: {reason}")
 
 
 # --------------------------------------------------------------------------- stream
@@ -620,6 +638,9 @@ class StreamDecoder:
         Longest COBS-encoded frame body accepted, bytes (default :data:`MAX_FRAME_BYTES`).
         It bounds the buffer: a longer run without a delimiter is dropped, counted once as
         ``"too_long"``, and decoding resumes after the next ``0x00``.
+    verifier : FrameVerifier, optional
+        Require authenticated frames and check their tags (see *Authentication*);
+        None (default) is the paper's unauthenticated protocol.
 
     Examples
     --------
@@ -633,7 +654,9 @@ class StreamDecoder:
     1
     """
 
-    def __init__(self, *, max_frame_bytes: int = MAX_FRAME_BYTES) -> None:
+    def __init__(
+        self, *, max_frame_bytes: int = MAX_FRAME_BYTES, verifier: FrameVerifier | None = None
+    ) -> None:
         if isinstance(max_frame_bytes, bool) or not isinstance(max_frame_bytes, int):
             raise TypeError("max_frame_bytes must be an int")
         if max_frame_bytes < _MIN_BODY:
@@ -644,6 +667,7 @@ class StreamDecoder:
         self._ok = 0
         self._rejected = dict.fromkeys(REJECT_REASONS, 0)
         self._tlvs_skipped = 0
+        self._verifier = verifier
 
     @property
     def stats(self) -> DecoderStats:
@@ -713,7 +737,7 @@ class StreamDecoder:
             self._reject(FrameError("too_long", f"{len(body)} bytes, limit {self._max}"))
             return
         try:
-            report, skipped = _decode_body(body)
+            report, skipped = _decode_body(body, self._verifier)
         except FrameError as exc:
             self._reject(exc)
             return
