@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from antikol.cli import evaluate, replay
+from antikol.cli import evaluate, replay, serve
 from antikol.errors import AntikolError
 
 __all__ = ["main"]
@@ -27,6 +27,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     replay.add_parser(sub)
     evaluate.add_parsers(sub)
+    serve.add_parser(sub)
     return p
 
 
