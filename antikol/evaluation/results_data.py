@@ -641,7 +641,7 @@ def _missed_event(
         "cat": "missed",
         "own": m.own,
         "other": m.other,
-        "kind": m.kind,
+        "kind": str(getattr(m.kind, "value", m.kind)),
         "level": "none",
         "t0": _r(m.start_s, 2),
         "t1": _r(m.start_s, 2),
