@@ -176,6 +176,7 @@ def html_map(
     highlight_paths: Sequence[Path] | None = None,
     muted: bool = False,
     legend: bool = True,
+    fit: bool = True,
 ) -> Any:
     """The Leaflet map of :func:`plot_map_html` as a :class:`folium.Map`, not yet saved.
 
@@ -195,6 +196,10 @@ def html_map(
         top.
     legend : bool
         Add the legend box (track classes, markers, title, attribution).
+    fit : bool
+        Fit the view to the network when the page opens (False: the caller's script
+        fits it to what it draws; a second fit while the first is still animated would be
+        undone by it).
 
     Returns
     -------
@@ -360,7 +365,7 @@ def html_map(
                 )
             )
         )
-    if net.edges:
+    if fit and net.edges:
         fmap.fit_bounds([[lat_min, lon_min], [lat_max, lon_max]], padding=(10, 10))
     return fmap
 

@@ -95,7 +95,7 @@ def results_page(
     from jinja2 import Template
 
     if net is not None:
-        fmap = html_map(net, tiles=tiles, muted=True, legend=False)
+        fmap = html_map(net, tiles=tiles, muted=True, legend=False, fit=not data.get("bounds"))
     else:
         fmap = _bare_map(folium, tiles, data.get("bounds"))
     control = folium.LayerControl(collapsed=True)

@@ -77,6 +77,9 @@ class LiveView:
         again by :meth:`reset`.
     queue_size : int
         Snapshots kept per viewer that falls behind.
+    on_snapshot : callable, optional
+        Called with every snapshot published (e.g. to record the session), in the thread
+        that ran the cycle.
     """
 
     def __init__(
@@ -86,12 +89,14 @@ class LiveView:
         source: str = "",
         make_analyser: Callable[[], Analyser] | None = None,
         queue_size: int = 64,
+        on_snapshot: Callable[[dict[str, Any]], None] | None = None,
     ) -> None:
         self.track_map = track_map
         self.source = source
         self._make = make_analyser or (lambda: Analyser(track_map=track_map))
         self.analyser = self._make()
         self.queue_size = queue_size
+        self.on_snapshot = on_snapshot
         #: Number of the latest cycle (0 before the first).
         self.cycles = 0
         #: The latest snapshot (None before the first cycle).
@@ -138,6 +143,8 @@ class LiveView:
             await asyncio.sleep(0.05)
 
     def _publish(self, snapshot: dict[str, Any]) -> None:
+        if self.on_snapshot is not None:
+            self.on_snapshot(snapshot)
         with self._lock:
             self.latest = snapshot
             subs = list(self._subs)

@@ -283,7 +283,7 @@
       return div;
     };
     panel.addTo(map);
-    if (data.bounds) { map.fitBounds(data.bounds, {padding: [20, 20]}); }
+    if (data.bounds) { map.fitBounds(data.bounds, {padding: [20, 20], animate: false}); }
     window.antikolResultsView = view;
     return view;
   }

@@ -121,7 +121,7 @@
       }
       if (options.fit && !fitted && snap.vehicles.length) {
         map.fitBounds(L.latLngBounds(snap.vehicles.map(function (v) { return [v.lat, v.lon]; })).pad(0.5),
-          {maxZoom: 17});
+          {maxZoom: 17, animate: false});
         fitted = true;
       }
       // what was drawn, read back from the map and the page
