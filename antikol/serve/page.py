@@ -59,7 +59,9 @@ def live_page(
         fmap = html_map(net, tiles=tiles, muted=True, legend=False)
     else:
         src = None if tiles is None or tiles.strip().lower() in ("", "none") else tiles
-        fmap = folium.Map(tiles=src, location=[0.0, 0.0], zoom_start=2, prefer_canvas=True)
+        fmap = folium.Map(
+            tiles=src, location=[0.0, 0.0], zoom_start=2, prefer_canvas=True, control_scale=True
+        )
         use_vendored_assets(fmap)
     control = folium.LayerControl(collapsed=True)
     control.add_to(fmap)
