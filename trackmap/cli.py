@@ -62,7 +62,8 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument(
         "--tiles",
         default="OpenStreetMap",
-        help="HTML only: tile provider or URL template; 'none' for an offline map",
+        help="HTML only: tile provider or URL template (fetched online when the page is "
+        "viewed); 'none': no tiles, the page makes no network request (default OpenStreetMap)",
     )
     pl.add_argument("--title", default=None)
     return p

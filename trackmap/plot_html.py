@@ -1,7 +1,16 @@
 """Interactive maps with folium: a Leaflet page (WGS84) with tooltips and popups.
 
-folium is an optional dependency (``pip install antikol[plot]``), imported by
-:func:`plot_map_html` only.
+Every page is one self-contained HTML file: Leaflet comes inlined from the copy shipped
+with the package (:mod:`trackmap.plot_assets`), so the map renders on a machine without
+internet; only online tiles, when asked for, are fetched.
+
+* :func:`plot_map_html` writes the map of a network;
+* :func:`html_map` builds the same map as a :class:`folium.Map` for other pages to draw
+  on (the replay and comparison results of :mod:`antikol.evaluation.html_results`, the
+  live view of :mod:`antikol.serve`), and :func:`save_html` writes such a map.
+
+folium is an optional dependency (``pip install antikol[plot]``), imported by these
+functions only.
 """
 
 from __future__ import annotations
@@ -18,6 +27,7 @@ import numpy as np
 from trackmap.model import Edge, Path
 from trackmap.network import TrackMap
 from trackmap.optional import require
+from trackmap.plot_assets import render_self_contained
 from trackmap.plot_style import (
     CROSSING_STYLE,
     HIGHLIGHT_COLOURS,
@@ -31,7 +41,14 @@ from trackmap.plot_style import (
     track_class,
 )
 
-__all__ = ["HTML_SUFFIXES", "OSM_TILE_ATTRIBUTION", "plot_map_html"]
+__all__ = [
+    "HTML_SUFFIXES",
+    "MUTED_TRACK_COLOUR",
+    "OSM_TILE_ATTRIBUTION",
+    "html_map",
+    "plot_map_html",
+    "save_html",
+]
 
 #: Output suffixes written by :func:`plot_map_html`.
 HTML_SUFFIXES = (".html",)
@@ -39,6 +56,10 @@ HTML_SUFFIXES = (".html",)
 OSM_TILE_ATTRIBUTION = (
     '&copy; <a href="https://www.openstreetmap.org/copyright">OpenStreetMap</a> contributors'
 )
+
+
+#: Colour of every track on the muted base map of result pages and the live view.
+MUTED_TRACK_COLOUR = "#a7b0ba"
 
 
 # -- interactive map ----------------------------------------------------------------------
@@ -62,6 +83,10 @@ def plot_map_html(
     point are marked too. The view is fitted to the network, a metric scale is shown and
     the map's data attribution is always added (to the attribution control and a legend).
 
+    The page is one self-contained file (Leaflet inlined, see
+    :mod:`trackmap.plot_assets`): it can be copied to and opened on a machine without
+    internet; with ``tiles=None`` it makes no network request at all.
+
     Parameters
     ----------
     net : TrackMap
@@ -71,9 +96,8 @@ def plot_map_html(
     tiles : str or None
         Background: a folium/xyzservices provider name (default ``"OpenStreetMap"``;
         e.g. ``"CartoDB positron"``) or a tile URL template
-        (``https://.../{z}/{x}/{y}.png``). ``None`` or ``"none"``: no tile layer at all,
-        so the map needs no tile server (the Leaflet script itself is still loaded from
-        its CDN when the page is opened).
+        (``https://.../{z}/{x}/{y}.png``), fetched online when the page is viewed.
+        ``None`` or ``"none"``: no tile layer at all, so the page needs no network.
     title : str, optional
         Heading shown in the legend box; default: source file, edge count and length.
     tiles_attribution : str, optional
@@ -100,7 +124,90 @@ def plot_map_html(
         folium is not installed (an ``ImportError``).
     """
     out = output_path(path, HTML_SUFFIXES, "plot_map_html")
+    fmap = html_map(
+        net,
+        tiles=tiles,
+        title=title,
+        tiles_attribution=tiles_attribution,
+        show_stops=show_stops,
+        highlight_paths=highlight_paths,
+    )
     folium = require("folium", purpose="plot_map_html")
+    folium.LayerControl(collapsed=True).add_to(fmap)
+    return save_html(fmap, out)
+
+
+def save_html(fmap: Any, path: str | os.PathLike[str]) -> pathlib.Path:
+    """Write a folium map made by :func:`html_map` as one self-contained HTML page.
+
+    Parameters
+    ----------
+    fmap : folium.Map
+        From :func:`html_map`, with whatever was added to it.
+    path : path-like
+        Output ``.html`` file; its directory must exist.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    ValueError
+        The suffix is not ``.html``.
+    trackmap.plot_assets.NotSelfContainedError
+        Something added to the map would load a script or stylesheet from the network.
+    trackmap.errors.SourceError
+        The output directory does not exist.
+    """
+    out = output_path(path, HTML_SUFFIXES, "save_html")
+    out.write_text(render_self_contained(fmap), encoding="utf-8")
+    return out
+
+
+def html_map(
+    net: TrackMap,
+    *,
+    tiles: str | None = "OpenStreetMap",
+    title: str | None = None,
+    tiles_attribution: str | None = None,
+    show_stops: bool = False,
+    highlight_paths: Sequence[Path] | None = None,
+    muted: bool = False,
+    legend: bool = True,
+    fit: bool = True,
+) -> Any:
+    """The Leaflet map of :func:`plot_map_html` as a :class:`folium.Map`, not yet saved.
+
+    It loads Leaflet from the vendored copy (:func:`trackmap.plot_assets.use_vendored_assets`);
+    write it with :func:`save_html` (or render it with
+    :func:`trackmap.plot_assets.render_self_contained`). No layer control is added: add
+    your layers first, then ``folium.LayerControl``.
+
+    Parameters
+    ----------
+    net : TrackMap
+    tiles, title, tiles_attribution, show_stops, highlight_paths
+        As for :func:`plot_map_html`.
+    muted : bool
+        Draw every track thin in :data:`MUTED_TRACK_COLOUR` and leave the node, crossing
+        and conflict layers off (they can be switched on): a base map for results drawn on
+        top.
+    legend : bool
+        Add the legend box (track classes, markers, title, attribution).
+    fit : bool
+        Fit the view to the network when the page opens (False: the caller's script
+        fits it to what it draws; a second fit while the first is still animated would be
+        undone by it).
+
+    Returns
+    -------
+    folium.Map
+    """
+    folium = require("folium", purpose="html_map")
+    from trackmap.plot_assets import use_vendored_assets
+
     # None or "none": no tile layer at all
     tile_source = None if tiles is None or tiles.strip().lower() in ("", "none") else tiles
     if net.edges:
@@ -129,12 +236,11 @@ def plot_map_html(
         if attr is None and is_template:
             attr = OSM_TILE_ATTRIBUTION
         fmap = folium.Map(tiles=tile_source, attr=attr, **map_kw)
+    use_vendored_assets(fmap)
 
-    colour_of: dict[str, str] = {}
     groups: dict[str, list[dict[str, Any]]] = {}
     for e in net.edges:
         cls = track_class(e)
-        colour_of[cls] = TRACK_COLOURS[cls]
         groups.setdefault(cls, []).append(_edge_feature(e))
     tooltip_fields = ["edge_id", "way_ids", "direction", "service", "structure", "length_m"]
     tooltip_aliases = ["edge", "OSM ways", "direction", "service", "structure", "length (m)"]
@@ -142,10 +248,14 @@ def plot_map_html(
         feats = groups.get(cls)
         if not feats:
             continue
+        if muted:
+            edge_style = _edge_style(MUTED_TRACK_COLOUR, 2.5 if cls == "main" else 2.0)
+        else:
+            edge_style = _edge_style(TRACK_COLOURS[cls], 4.0 if cls == "main" else 3.0)
         folium.GeoJson(
             {"type": "FeatureCollection", "features": feats},
             name=f"{TRACK_LABELS[cls]} ({len(feats)})",
-            style_function=_edge_style(TRACK_COLOURS[cls], 4.0 if cls == "main" else 3.0),
+            style_function=edge_style,
             highlight_function=lambda _f: {"weight": 7, "opacity": 1.0},
             tooltip=folium.GeoJsonTooltip(
                 fields=tooltip_fields, aliases=tooltip_aliases, sticky=True
@@ -176,6 +286,7 @@ def plot_map_html(
             style,
             f"{style.label} ({len(nodes)})",
             ["class", "node_id", "edges"],
+            show=not muted,
         )
         legend_markers.append((style.colour, f"{style.label} ({len(nodes)})"))
 
@@ -205,6 +316,7 @@ def plot_map_html(
             CROSSING_STYLE,
             label,
             conflict_fields,
+            show=not muted,
         )
         legend_markers.append((CROSSING_STYLE.edge, label))
     if net.conflicts:
@@ -239,21 +351,23 @@ def plot_map_html(
 
     attribution = net.metadata.attribution
     _add_attribution(folium, fmap, attribution)
-    fmap.get_root().html.add_child(
-        folium.Element(
-            _legend_html(
-                title if title is not None else default_title(net),
-                [(TRACK_COLOURS[c], TRACK_LABELS[c]) for c in TRACK_COLOURS if c in groups],
-                legend_markers,
-                attribution,
+    if legend:
+        track_rows = [(MUTED_TRACK_COLOUR, "track")] if muted else []
+        if not muted:
+            track_rows = [(TRACK_COLOURS[c], TRACK_LABELS[c]) for c in TRACK_COLOURS if c in groups]
+        fmap.get_root().html.add_child(
+            folium.Element(
+                _legend_html(
+                    title if title is not None else default_title(net),
+                    track_rows,
+                    [] if muted else legend_markers,
+                    attribution,
+                )
             )
         )
-    )
-    folium.LayerControl(collapsed=True).add_to(fmap)
-    if net.edges:
+    if fit and net.edges:
         fmap.fit_bounds([[lat_min, lon_min], [lat_max, lon_max]], padding=(10, 10))
-    fmap.save(str(out))
-    return out
+    return fmap
 
 
 def _check_tile_provider(name: str) -> None:

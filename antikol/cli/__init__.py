@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from antikol.cli import evaluate, onboard, replay
+from antikol.cli import evaluate, onboard, replay, serve
 from antikol.errors import AntikolError
 
 __all__ = ["main"]
@@ -28,6 +28,7 @@ def _parser() -> argparse.ArgumentParser:
     replay.add_parser(sub)
     evaluate.add_parsers(sub)
     onboard.add_parser(sub)
+    serve.add_parser(sub)
     return p
 
 

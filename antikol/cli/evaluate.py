@@ -62,6 +62,21 @@ def add_parsers(sub: Any) -> None:
         metavar="DIR",
         help="write one figure per scenario into DIR",
     )
+    c.add_argument(
+        "--html",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write one interactive result map per scenario into DIR, and index.html (self-"
+        "contained pages: both analysers' lamps along the true paths, every warning, false "
+        "alarm and missed warning as a clickable marker)",
+    )
+    c.add_argument(
+        "--tiles",
+        default="none",
+        help="--html only: online background tiles, a provider name or URL template "
+        "(default none: the pages make no network request)",
+    )
     _scenario_options(c)
 
     d = sub.add_parser("demo", help="the city scenario on the embedded Kraków map")
@@ -135,6 +150,7 @@ def _run_comparisons(
     args: argparse.Namespace,
     figures: Path | None,
     failed: list[str] | None = None,
+    html: Path | None = None,
 ) -> tuple[list[Any], list[str]]:
     """Compare on each named scenario; those the map cannot host go to the skipped list,
     those that fail (a bug) to ``failed`` (or raise when it is None)."""
@@ -162,6 +178,12 @@ def _run_comparisons(
             figures.mkdir(parents=True, exist_ok=True)
             own = tuple(v for v in result.truth if v not in scn.off_map)
             comparison_figure(comp, net, figures / f"{name}.png", vehicles=own)
+        if html is not None:
+            from antikol.evaluation.html_results import comparison_html
+
+            html.mkdir(parents=True, exist_ok=True)
+            own = tuple(v for v in result.truth if v not in scn.off_map)
+            comparison_html(comp, net, html / f"{name}.html", vehicles=own, tiles=args.tiles)
     return done, skipped
 
 
@@ -175,7 +197,7 @@ def _compare(args: argparse.Namespace) -> int:
         raise ValueError("compare needs a map (--map default, synthetic or a map file)")
     failed: list[str] = []
     names = _scenario_names(args.scenario)
-    done, skipped = _run_comparisons(net, names, args, args.figures, failed)
+    done, skipped = _run_comparisons(net, names, args, args.figures, failed, args.html)
     status = 1 if failed else 0
     if args.json:
         doc = {
@@ -194,6 +216,15 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"FAILED {line}")
     if args.figures is not None:
         print(f"figures written to {args.figures}/")
+    if args.html is not None:
+        from antikol.evaluation.html_results import comparison_index_html
+
+        index = comparison_index_html(
+            [(c, f"{c.name}.html") for c in done],
+            args.html / "index.html",
+            notes=[f"skipped {line}" for line in skipped] + [f"FAILED {line}" for line in failed],
+        )
+        print(f"result maps written to {args.html}/ (open {index})")
     return status
 
 

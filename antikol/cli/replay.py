@@ -45,6 +45,21 @@ def add_parser(sub: Any) -> None:
         help="analysis period in seconds (default 1)",
     )
     r.add_argument("--strict", action="store_true", help="stop at the first bad row")
+    r.add_argument(
+        "--html",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="also write the results as an interactive map (one self-contained page: paths "
+        "coloured by lamp state, every warning as a clickable marker with its pair's "
+        "distance and warnings against time)",
+    )
+    r.add_argument(
+        "--tiles",
+        default="none",
+        help="--html only: online background tiles, a provider name or URL template "
+        "(default none: the page makes no network request)",
+    )
     r.add_argument("--progress", action="store_true", help="show a progress bar")
 
     r.set_defaults(run=_replay)
@@ -68,9 +83,20 @@ def _replay(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.log}: no usable report in the {fmt} log")
     net = load_map(args.map)
     analyser = Analyser(track_map=net)
+    recorder = None
+    if args.html is not None:
+        from antikol.evaluation.results_data import ReplayRecorder
+
+        recorder = ReplayRecorder(analyser)
     with EventWriter(args.events) as events:
+
+        def on_assessment(a: Any) -> None:
+            events(a)
+            if recorder is not None:
+                recorder(a)
+
         summary = replay(
-            log, analyser, cycle_s=args.cycle, on_assessment=events, progress=args.progress
+            log, analyser, cycle_s=args.cycle, on_assessment=on_assessment, progress=args.progress
         )
     method = "track-aware analyser" if net is not None else "sector rule (no map)"
     print(
@@ -87,4 +113,16 @@ def _replay(args: argparse.Namespace) -> int:
     kinds = ", ".join(f"{k}={v}" for k, v in sorted(summary.by_kind.items())) or "none"
     print(f"threat observations by kind: {kinds}; suppressed: {summary.suppressed}")
     print(f"wrote {events.rows} events to {args.events}")
+    if recorder is not None:
+        from antikol.evaluation.html_results import replay_html
+
+        page = replay_html(
+            recorder,
+            args.html,
+            net=net,
+            title=f"{args.log.name}: {method}",
+            cycle_s=args.cycle,
+            tiles=args.tiles,
+        )
+        print(f"wrote the result map {page}")
     return 0
