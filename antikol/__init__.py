@@ -32,11 +32,22 @@ from antikol.errors import (
     ReplayError,
     UnknownVehicleError,
 )
+from antikol.ingest.auth import (
+    Ed25519Signer,
+    Ed25519Verifier,
+    HmacSigner,
+    HmacVerifier,
+    generate_key_files,
+    load_key_file,
+)
+from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import (
     DecoderStats,
     EncodeError,
     FrameError,
+    FrameSigner,
+    FrameVerifier,
     StreamDecoder,
     encode_report,
 )
@@ -61,9 +72,15 @@ __all__ = [
     "BrakingProfile",
     "DecoderStats",
     "DiscreteFix",
+    "Ed25519Signer",
+    "Ed25519Verifier",
     "EncodeError",
     "FixPoint",
     "FrameError",
+    "FrameSigner",
+    "FrameVerifier",
+    "HmacSigner",
+    "HmacVerifier",
     "InputFileError",
     "InvalidReportError",
     "NmeaReader",
@@ -72,6 +89,7 @@ __all__ = [
     "ProfileError",
     "ProtocolError",
     "ReplayError",
+    "ReplayGuard",
     "ReportedTrackPosition",
     "SectorRule",
     "StreamDecoder",
@@ -86,7 +104,9 @@ __all__ = [
     "__version__",
     "analysis",
     "encode_report",
+    "generate_key_files",
     "ingest",
+    "load_key_file",
     "load_profile",
     "positioning",
     "table",

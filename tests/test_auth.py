@@ -300,3 +300,33 @@ def test_guard_validates_its_arguments() -> None:
         ReplayGuard(max_age_s=float("nan"))
     with pytest.raises(InvalidArgumentError):
         ReplayGuard(max_senders=0)
+
+
+def test_analyser_feed_bytes_takes_only_authenticated_fresh_frames():
+    """Radio bytes fed to an analyser with the fleet's keys and a replay guard: a forged
+    frame, an unsigned one and a replayed copy never reach the vehicle table."""
+    import antikol
+    from antikol.ingest.protocol import encode_report
+
+    key = bytes(range(32))
+    an = antikol.Analyser(
+        own_id="T1",
+        verifier=antikol.HmacVerifier({3: key}),
+        replay_guard=antikol.ReplayGuard(),
+    )
+    an.update(antikol.VehicleReport("T1", 100.0, 50.06, 19.93, 8.0, 90.0))
+    other = antikol.VehicleReport("T2", 100.0, 50.06, 19.932, 8.0, 90.0)
+    good = encode_report(other, seq=5, signer=antikol.HmacSigner(key, 3))
+    forged = encode_report(
+        antikol.VehicleReport("T3", 100.0, 50.06, 19.931, 0.0, 90.0),
+        seq=1,
+        signer=antikol.HmacSigner(bytes(32), 3),
+    )
+    unsigned = encode_report(antikol.VehicleReport("T4", 100.0, 50.06, 19.931, 0.0, 90.0))
+    assert [u.accepted for u in an.feed_bytes(forged + unsigned + good)] == [True]
+    assert an.feed_bytes(good) == []  # the same frame again: a replay
+    assert sorted(r.vehicle_id for r in an.table) == ["T1", "T2"]
+    rejected = an.decoder_stats.rejected
+    assert rejected["bad_signature"] == 1 and rejected["unsigned"] == 1
+    assert an.replay_guard.stats["duplicate"] == 1
+    assert [t.vehicle_id for t in an.assess().threats] == ["T2"]

@@ -31,7 +31,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
@@ -49,14 +49,15 @@ from antikol.analysis.profiles import BrakingProfile, load_profile
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
 from antikol.analysis.views import CycleViews, VehicleView, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
+from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
-from antikol.ingest.protocol import DecoderStats, StreamDecoder
+from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
 from antikol.kinds import Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import DiscreteFix, FixPoint, TrackPosition
 from antikol.report import VehicleReport
-from antikol.table import TableUpdate, VehicleTable
+from antikol.table import CLOCK_WINDOW_S, TableUpdate, VehicleTable
 from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
 from trackmap import Path, TrackMap
 
@@ -207,6 +208,14 @@ class Analyser:
     config : AnalyserConfig, optional
     fix_points : iterable of FixPoint
         Discrete position references on the map (balises, loop crossings).
+    verifier : FrameVerifier, optional
+        Keys of the fleet: :meth:`feed_bytes` then accepts only authenticated frames
+        (:mod:`antikol.ingest.auth`); None accepts the paper's unsigned frames.
+    replay_guard : ReplayGuard, optional
+        Sequence and time windows for :meth:`feed_bytes` (:mod:`antikol.ingest.guard`).
+    clock_window_s, max_new_ids, time_source
+        Passed to the :class:`~antikol.table.VehicleTable` (its clock and its cap on new
+        vehicle ids; ``max_new_ids="auto"`` caps a control room only).
     """
 
     def __init__(
@@ -222,6 +231,11 @@ class Analyser:
         positioning: PositioningConfig | None = None,
         config: AnalyserConfig | None = None,
         fix_points: Iterable[FixPoint] = (),
+        verifier: FrameVerifier | None = None,
+        replay_guard: ReplayGuard | None = None,
+        clock_window_s: float | None = CLOCK_WINDOW_S,
+        max_new_ids: int | Literal["auto"] | None = "auto",
+        time_source: Callable[[], float] | None = None,
     ) -> None:
         self.track_map = track_map
         self.sector = sector if sector is not None else SectorRule()
@@ -237,7 +251,16 @@ class Analyser:
         retain = self.expiry_s
         if own_id is None and track_map is not None:
             retain = max(retain, (positioning or PositioningConfig()).dead_reckoning_s)
-        self.table = VehicleTable(capacity=table_capacity, expiry_s=retain, own_id=own_id)
+        self.table = VehicleTable(
+            capacity=table_capacity,
+            expiry_s=retain,
+            own_id=own_id,
+            clock_window_s=clock_window_s,
+            max_new_ids=max_new_ids,
+            time_source=time_source,
+        )
+        self.verifier = verifier
+        self.replay_guard = replay_guard
         self.courses = CourseKeeper(min_speed_mps=self.sector.min_speed_for_course_mps)
         self.profile = profile if profile is not None else load_profile("tram")
         self.profiles = dict(profiles or {})
@@ -334,15 +357,29 @@ class Analyser:
                     self.stats["positioning_error"] += 1
                     logger.exception("positioning failed on a report of %s", r.vehicle_id)
 
-    def feed_bytes(self, chunk: bytes) -> list[TableUpdate]:
+    def feed_bytes(self, chunk: bytes, *, now: float | None = None) -> list[TableUpdate]:
         """Feed raw radio bytes (any chunking); decoded reports update the analyser.
 
-        Rejected frames are counted in :attr:`decoder_stats`; this never raises.
+        Frames are checked by the ``verifier`` and the ``replay_guard`` when configured.
+        Rejected frames are counted in :attr:`decoder_stats` (decoding, authentication) and
+        in the guard's ``stats`` (replays, times out of window); this never raises.
+
+        Parameters
+        ----------
+        chunk : bytes
+        now : float, optional
+            The receiver's clock in report time, s, for the replay guard's time window
+            (default: the vehicle table's clock, or none before it has one).
         """
         if self._decoder is None:
-            self._decoder = StreamDecoder()
+            self._decoder = StreamDecoder(verifier=self.verifier)
         try:
-            return self.update_many(self._decoder.feed(chunk))
+            reports = self._decoder.feed(chunk)
+            if self.replay_guard is not None:
+                clock = self.table.clock if now is None else float(now)
+                at = clock if math.isfinite(clock) else None
+                reports = [r for r in reports if self.replay_guard.check(r, at) is None]
+            return self.update_many(reports)
         except Exception:
             self.stats["feed_error"] += 1
             logger.exception("radio input could not be processed")

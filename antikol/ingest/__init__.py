@@ -3,7 +3,9 @@
 * :mod:`antikol.ingest.nmea` — the own GPS receiver (NMEA 0183 through pynmeagps);
   :mod:`antikol.ingest.nmea_writer` writes such sentences (tests, simulator), and
   :mod:`antikol.ingest.nmea_spec` holds what reader and writer share;
-* :mod:`antikol.ingest.protocol` — the radio frames of the other vehicles;
+* :mod:`antikol.ingest.protocol` — the radio frames of the other vehicles (COBS framing in
+  :mod:`antikol.ingest.cobs`), authenticated by :mod:`antikol.ingest.auth` (HMAC fleet key
+  or Ed25519 per vehicle) and checked against replays by :mod:`antikol.ingest.guard`;
 * :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format (its
   only reader and writer);
 * operator feeds: :mod:`antikol.ingest.hfp` (HSL-style high-frequency positioning, JSON or
@@ -12,8 +14,17 @@
 * :mod:`antikol.ingest.feeds` — any recorded log, its format recognised.
 """
 
+from antikol.ingest.auth import (
+    Ed25519Signer,
+    Ed25519Verifier,
+    HmacSigner,
+    HmacVerifier,
+    generate_key_files,
+    load_key_file,
+)
 from antikol.ingest.feeds import LOG_FORMATS, detect_log_format, read_log
 from antikol.ingest.gtfsrt import read_gtfs_realtime, write_feed_message
+from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.hfp import read_hfp
 from antikol.ingest.nmea import NmeaReader, NmeaStats, read_nmea_directory, read_nmea_file
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
@@ -21,6 +32,8 @@ from antikol.ingest.protocol import (
     DecoderStats,
     EncodeError,
     FrameError,
+    FrameSigner,
+    FrameVerifier,
     StreamDecoder,
     decode_frame,
     encode_report,
@@ -40,10 +53,17 @@ __all__ = [
     "REPLAY_COLUMNS",
     "REPLAY_OPTIONAL_COLUMNS",
     "DecoderStats",
+    "Ed25519Signer",
+    "Ed25519Verifier",
     "EncodeError",
     "FrameError",
+    "FrameSigner",
+    "FrameVerifier",
+    "HmacSigner",
+    "HmacVerifier",
     "NmeaReader",
     "NmeaStats",
+    "ReplayGuard",
     "ReplayLog",
     "RowProblem",
     "StreamDecoder",
@@ -53,6 +73,8 @@ __all__ = [
     "format_gga",
     "format_rmc",
     "format_vtg",
+    "generate_key_files",
+    "load_key_file",
     "read_gtfs_realtime",
     "read_hfp",
     "read_log",

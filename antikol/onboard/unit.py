@@ -281,12 +281,14 @@ class OnboardUnit:
 
     # -- set-up ----------------------------------------------------------------------------
     def _new_analyser(self) -> Analyser:
-        analyser = Analyser(track_map=self.track_map, own_id=self.config.vehicle_id)
-        if self.config.vehicle_id is None:
-            if self.config.max_new_ids is not None:
-                analyser.table.max_new_ids = self.config.max_new_ids
-            analyser.table.time_source = self._clock_now
-        return analyser
+        control_room = self.config.vehicle_id is None
+        max_new_ids = self.config.max_new_ids if control_room else None
+        return Analyser(
+            track_map=self.track_map,
+            own_id=self.config.vehicle_id,
+            max_new_ids="auto" if max_new_ids is None else max_new_ids,
+            time_source=self._clock_now if control_room else None,
+        )
 
     @property
     def mode(self) -> str:
