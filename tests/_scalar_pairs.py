@@ -76,9 +76,45 @@ def _summarise(findings, trusted: bool, st: PairSettings) -> _Summary:
     return summary
 
 
+@dataclass(frozen=True)
+class _Entry:
+    """Another vehicle's hypothesis passing a conflict point one way, with the probability
+    of its most probable path that way."""
+
+    hyp: int
+    distance_m: float
+    from_edge: int
+    to_edge: int
+    probability: float
+
+
+_INDEX: dict[int, tuple[VehicleView, dict[int, list[_Entry]]]] = {}
+
+
+def _entries(view: VehicleView, conflict_id: int) -> list[_Entry]:
+    known = _INDEX.get(id(view))
+    if known is None or known[0] is not view:
+        if len(_INDEX) > 5000:
+            _INDEX.clear()
+        index: dict[int, list[_Entry]] = {}
+        for h_idx, h in enumerate(view.hyps):
+            best: dict[int, float] = {}
+            for p_idx, ways in enumerate(h.path_approaches):
+                for a in ways:
+                    best[a] = max(best.get(a, 0.0), h.path_probability[p_idx])
+            for a, prob in best.items():
+                ap = h.approaches[a]
+                index.setdefault(ap.conflict_id, []).append(
+                    _Entry(h_idx, ap.distance_m, ap.from_edge, ap.to_edge, prob)
+                )
+        known = _INDEX[id(view)] = (view, index)
+    return known[1].get(conflict_id, [])
+
+
 def _located(h: HypothesisView, g: HypothesisView) -> dict[int, tuple[float, bool]]:
     out: dict[int, tuple[float, bool]] = {}
-    for p_idx, step in h.edge_steps.get(g.edge_id, ()):
+    steps = [(p_idx, st) for p_idx, p in enumerate(h.paths) for st in p.steps]
+    for p_idx, step in (x for x in steps if x[1].edge_id == g.edge_id):
         if p_idx in out:
             continue
         d = step.distance_to(g.offset_m)
@@ -117,10 +153,7 @@ def pair_outcome(
                         conflict = net.conflicts[ap.conflict_id]
                         mine = approach(own, conflict, ap.distance_m, ap.from_edge, ap.to_edge)
                         findings = []
-                        entries = cycle.by_conflict.get(ap.conflict_id, {}).get(
-                            other.vehicle_id, ()
-                        )
-                        for e in entries:
+                        for e in _entries(other, ap.conflict_id):
                             if e.hyp != g_idx:
                                 continue
                             kind = conflict_kind(

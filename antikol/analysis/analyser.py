@@ -318,6 +318,10 @@ class Analyser:
         self._last_threats: dict[tuple[str, str], Threat] = {}
         self._moving: dict[str, bool] = {}
         self._pending: list[VehicleReport] = []
+        self._sector_cycle: tuple[tuple[float, int] | None, dict[str, list[SectorHit]]] = (
+            None,
+            {},
+        )
 
     # -- input ---------------------------------------------------------------------------
     def update(self, report: VehicleReport) -> TableUpdate:
@@ -481,8 +485,7 @@ class Analyser:
         if own is None:
             raise UnknownVehicleError(f"no current report of vehicle {vid!r}")
         now = self.table.clock if t is None else float(t)
-        others = [r for r in self.table.others(vid) if now - r.t <= self.expiry_s]
-        hits = self._sector_hits(own, others)
+        hits = self._sector_hits(own, now)
         if self.track_map is None:
             plain = [self._sector_threat(own, self._report(h.vehicle_id), h) for h in hits]
             return self._assessment(vid, now, plain, [], "sector")
@@ -631,8 +634,24 @@ class Analyser:
     def _profile(self, vid: str) -> BrakingProfile:
         return self.profiles.get(vid, self.profile)
 
-    def _sector_hits(self, own: VehicleReport, others: list[VehicleReport]) -> list[SectorHit]:
+    def _sector_hits(self, own: VehicleReport, now: float) -> list[SectorHit]:
+        """The sector rule's hits of a vehicle among the others heard within the expiry:
+        on board from the own vehicle alone, in a control room for every vehicle of the
+        time at once (:meth:`SectorRule.evaluate_all`)."""
+        if self.own_id is None:
+            key = (now, self._version)
+            if self._sector_cycle[0] != key:
+                reports = list(self.table)
+                hits = self.sector.evaluate_all(
+                    reports,
+                    [self.courses.course(r.vehicle_id) for r in reports],
+                    targets=[now - r.t <= self.expiry_s for r in reports],
+                )
+                by_id = {r.vehicle_id: h for r, h in zip(reports, hits, strict=True)}
+                self._sector_cycle = (key, by_id)
+            return self._sector_cycle[1].get(own.vehicle_id, [])
         course = self.courses.course(own.vehicle_id)
+        others = [r for r in self.table.others(own.vehicle_id) if now - r.t <= self.expiry_s]
         if course is None or not others:
             return []
         return self.sector.evaluate(own, others, course_deg=course)
@@ -732,10 +751,9 @@ class Analyser:
             if (a in own_edges and b in oth_edges) or (b in own_edges and a in oth_edges):
                 return "grade_separated"
         shared = any(
-            other.vehicle_id in cycle.by_conflict.get(cp.conflict_id, {})
+            other.vehicle_id in cycle.passing(ap.conflict_id)
             for h in own.hyps
-            for p in h.paths
-            for cp in p.conflicts
+            for ap in h.approaches
         )
         if shared:
             return "no_overlap"

@@ -14,12 +14,22 @@ vehicles approaching it see it in their own sectors.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
-from antikol.analysis.geometry import angle_difference_deg, paper_offsets
+from antikol.analysis.geometry import (
+    PAPER_SPHERE_RADIUS_M,
+    angle_difference_deg,
+    dist_km,
+    latdist_km,
+    londist_km,
+    paper_offsets,
+    sight_rad,
+)
 from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
@@ -108,6 +118,76 @@ class SectorRule:
         ]
         hits.sort(key=lambda h: h.distance_m)
         return hits
+
+    def evaluate_all(
+        self,
+        reports: Sequence[VehicleReport],
+        courses: Sequence[float | None],
+        *,
+        targets: npt.ArrayLike | None = None,
+    ) -> list[list[SectorHit]]:
+        """Every vehicle's sector at once (a control room's cycle).
+
+        The same hits as :meth:`evaluate` for each vehicle against all the others, found
+        through a k-d tree of the positions so that the cost grows with the pairs within
+        ``d_col_m``, not with the square of the fleet.
+
+        Parameters
+        ----------
+        reports : sequence of VehicleReport
+            The current report of every vehicle.
+        courses : sequence of float or None
+            The course to use for each (degrees); None: no known course, no hits.
+        targets : array_like of bool, optional
+            Which reports may be hit (default: all), e.g. not those too old to be seen.
+
+        Returns
+        -------
+        list of list of SectorHit
+            For each report the others in its sector, nearest first (equal distances in
+            the order of ``reports``).
+
+        Examples
+        --------
+        >>> from antikol.report import VehicleReport
+        >>> fleet = [VehicleReport("A", 0.0, 50.06, 19.930, 8.0, 90.0),
+        ...          VehicleReport("B", 0.0, 50.06, 19.932, 8.0, 90.0)]
+        >>> hits = SectorRule().evaluate_all(fleet, [90.0, 90.0])
+        >>> [[h.vehicle_id for h in own] for own in hits]
+        [['B'], []]
+        """
+        n = len(reports)
+        out: list[list[SectorHit]] = [[] for _ in range(n)]
+        if n < 2:
+            return out
+        lat = np.fromiter((r.lat for r in reports), dtype=float, count=n)
+        lon = np.fromiter((r.lon for r in reports), dtype=float, count=n)
+        course = np.array([np.nan if c is None else c for c in courses], dtype=float)
+        seen = np.ones(n, dtype=bool) if targets is None else np.asarray(targets, dtype=bool)
+        # candidates: chords on the paper's sphere, with room for the planar formulas'
+        # difference from it (under 1 % at the sector's range)
+        phi, lam = np.radians(lat), np.radians(lon)
+        xyz = PAPER_SPHERE_RADIUS_M * np.column_stack(
+            (np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi))
+        )
+        pairs = cKDTree(xyz).query_pairs(1.05 * self.d_col_m + 10.0, output_type="ndarray")
+        own = np.concatenate([pairs[:, 0], pairs[:, 1]])
+        other = np.concatenate([pairs[:, 1], pairs[:, 0]])
+        keep = ~np.isnan(course[own]) & seen[other]
+        own, other = own[keep], other[keep]
+        # formulas (4)-(9) pair by pair, as paper_offsets computes them from one vehicle
+        lat_d = latdist_km(lat[own], lat[other])
+        lon_d = londist_km(lat[own], lon[own], lon[other])
+        distance = np.asarray(dist_km(lat_d, lon_d)) * 1000.0
+        bearing = np.degrees(np.asarray(sight_rad(lat_d, lon_d))) % 360.0
+        off = np.abs(np.asarray(angle_difference_deg(bearing, course[own])))
+        hit = (distance < self.d_col_m) & (off <= self.half_angle_deg)
+        own, other, distance, bearing = own[hit], other[hit], distance[hit], bearing[hit]
+        for k in np.lexsort((other, distance, own)):
+            out[own[k]].append(
+                SectorHit(reports[other[k]].vehicle_id, float(distance[k]), float(bearing[k]))
+            )
+        return out
 
     @staticmethod
     def measure(

@@ -3,9 +3,8 @@
 A :class:`CycleViews` is built once per analysis time from the vehicle table and the
 positioning: for every vehicle its speed, ends, braking distances, look-ahead and the
 hypotheses worth evaluating with their paths ahead (one path per zone, each with the
-probability of the vehicle taking it); and two indices that let a pair be found without
-comparing every vehicle with every other: which hypotheses stand on each edge, and which
-paths pass each conflict point.
+probability of the vehicle taking it). The pairs are found and judged from these views by
+:mod:`antikol.analysis.pairs`.
 """
 
 from __future__ import annotations
@@ -13,7 +12,6 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -23,13 +21,11 @@ from antikol.analysis.ends import VehicleEnds, vehicle_ends
 from antikol.analysis.profiles import BrakingProfile
 from antikol.positioning.records import TrackPosition
 from antikol.report import VehicleReport
-from trackmap import NodePass, Path, PathStep, TrackMap
+from trackmap import NodePass, Path, TrackMap
 
 __all__ = [
     "ConflictApproach",
-    "ConflictEntry",
     "CycleViews",
-    "EdgeEntry",
     "HypothesisView",
     "VehicleView",
     "ViewSettings",
@@ -93,8 +89,6 @@ class HypothesisView:
         The distinct ways the paths pass conflict points.
     path_approaches : tuple of tuple of int
         For each path, the indices of its approaches in running order.
-    edge_steps : dict of int to tuple
-        For each edge the paths pass, the (path index, step) pairs, in path order.
     """
 
     edge_id: int
@@ -107,7 +101,6 @@ class HypothesisView:
     path_probability: tuple[float, ...]
     approaches: tuple[ConflictApproach, ...] = ()
     path_approaches: tuple[tuple[int, ...], ...] = ()
-    edge_steps: dict[int, tuple[tuple[int, PathStep], ...]] = field(default_factory=dict)
 
 
 @dataclass(slots=True)
@@ -154,53 +147,24 @@ class VehicleView:
         return self.position is not None and self.position.matched
 
 
-@dataclass(frozen=True, slots=True)
-class EdgeEntry:
-    """A hypothesis standing on an edge: the vehicle and the hypothesis' index."""
-
-    vehicle_id: str
-    hyp: int
-
-
-@dataclass(frozen=True, slots=True)
-class ConflictEntry:
-    """A vehicle's hypothesis passing a conflict point one way.
-
-    Attributes
-    ----------
-    vehicle_id : str
-    hyp : int
-        Index of the hypothesis.
-    distance_m : float
-        From the antenna to the conflict point along its paths, m.
-    from_edge, to_edge : int
-        The edges the paths arrive on and leave by.
-    probability : float
-        Probability that the vehicle takes this way (the most probable of its paths
-        through the point that way).
-    """
-
-    vehicle_id: str
-    hyp: int
-    distance_m: float
-    from_edge: int
-    to_edge: int
-    probability: float
-
-
 @dataclass(slots=True)
 class CycleViews:
-    """Views of every vehicle at one time, with the edge and conflict-point indices."""
+    """Views of every vehicle at one time."""
 
     t: float
     views: dict[str, VehicleView] = field(default_factory=dict)
-    by_edge: dict[int, list[EdgeEntry]] = field(default_factory=dict)
-    #: conflict point -> vehicle -> the paths of that vehicle passing it
-    by_conflict: dict[int, dict[str, list[ConflictEntry]]] = field(default_factory=dict)
-    #: scratch of the pair evaluations of this time: each vehicle's way through a fouling
-    #: area, and each other vehicle's way with its earliest arrival there (s)
-    ways: dict[tuple[str, ConflictApproach], Any] = field(default_factory=dict)
-    arrivals: dict[ConflictEntry, tuple[Any, float]] = field(default_factory=dict)
+    _passing: dict[int, set[str]] | None = None
+
+    def passing(self, conflict_id: int) -> set[str]:
+        """The vehicles whose paths pass a conflict point (an index built on first use)."""
+        if self._passing is None:
+            index: dict[int, set[str]] = defaultdict(set)
+            for vid, view in self.views.items():
+                for h in view.hyps:
+                    for ap in h.approaches:
+                        index[ap.conflict_id].add(vid)
+            self._passing = dict(index)
+        return self._passing.get(conflict_id, set())
 
 
 def build_views(
@@ -237,8 +201,6 @@ def build_views(
     CycleViews
     """
     cycle = CycleViews(t)
-    by_edge: dict[int, list[EdgeEntry]] = defaultdict(list)
-    by_conflict: dict[int, dict[str, list[ConflictEntry]]] = defaultdict(dict)
     speeds = np.array(
         [
             (pos.speed_mps if pos is not None and pos.matched else r.speed_mps)
@@ -267,28 +229,32 @@ def build_views(
         )
         if pos is not None and pos.matched:
             view.hyps = _hypotheses(net, branches, pos, view, settings)
-            for h_idx, h in enumerate(view.hyps):
-                by_edge[h.edge_id].append(EdgeEntry(vid, h_idx))
-                best: dict[int, float] = {}
-                for p_idx, ways in enumerate(h.path_approaches):
-                    for a in ways:
-                        best[a] = max(best.get(a, 0.0), h.path_probability[p_idx])
-                for a, prob in best.items():
-                    ap = h.approaches[a]
-                    by_conflict[ap.conflict_id].setdefault(vid, []).append(
-                        ConflictEntry(vid, h_idx, ap.distance_m, ap.from_edge, ap.to_edge, prob)
-                    )
         cycle.views[vid] = view
-    cycle.by_edge = dict(by_edge)
-    cycle.by_conflict = dict(by_conflict)
     return cycle
 
 
-def _node_at(path: Path, distance_m: float) -> NodePass | None:
-    for n in path.nodes:
-        if abs(n.distance_m - distance_m) < 1e-6:
-            return n
-    return None
+def _nodes_at(path: Path) -> list[NodePass | None]:
+    """For each conflict point of a path (in order), the first node within 1e-6 m of it.
+
+    Both are sorted by distance: one walk, the window a little wider than the test so that
+    no node the test would accept is skipped.
+    """
+    nodes = path.nodes
+    out: list[NodePass | None] = []
+    i = 0
+    for cp in path.conflicts:
+        d = cp.distance_m
+        while i < len(nodes) and nodes[i].distance_m < d - 2e-6:
+            i += 1
+        found = None
+        j = i
+        while j < len(nodes) and nodes[j].distance_m <= d + 2e-6:
+            if abs(nodes[j].distance_m - d) < 1e-6:
+                found = nodes[j]
+                break
+            j += 1
+        out.append(found)
+    return out
 
 
 def _distances(
@@ -344,10 +310,6 @@ def _hypotheses(
         )
         trusted = not h.wrong_way or h.wrong_way_s >= settings.wrong_way_evidence_s
         approaches, path_approaches = _approaches(paths)
-        steps: dict[int, list[tuple[int, PathStep]]] = defaultdict(list)
-        for p_idx, p in enumerate(paths):
-            for step in p.steps:
-                steps[step.edge_id].append((p_idx, step))
         out.append(
             HypothesisView(
                 edge,
@@ -360,7 +322,6 @@ def _hypotheses(
                 probs,
                 approaches,
                 path_approaches,
-                {e: tuple(v) for e, v in steps.items()},
             )
         )
     return out
@@ -374,8 +335,7 @@ def _approaches(
     per_path = []
     for p in paths:
         mine = []
-        for cp in p.conflicts:
-            node = _node_at(p, cp.distance_m)
+        for cp, node in zip(p.conflicts, _nodes_at(p), strict=True):
             ap = ConflictApproach(
                 cp.conflict_id,
                 cp.distance_m,

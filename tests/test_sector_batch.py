@@ -1,0 +1,47 @@
+"""The control room's sector rule for a whole fleet at once equals the rule per vehicle."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from antikol import SectorRule, VehicleReport
+
+
+def _fleet(seed: int, n: int, spread_deg: float, lat0: float):
+    rng = np.random.default_rng(seed)
+    lat = lat0 + rng.uniform(-spread_deg, spread_deg, n)
+    lon = 19.9 + rng.uniform(-spread_deg, spread_deg, n) * 1.5
+    # a few vehicles at the very same place, or due north/south of another
+    lat[: n // 10] = lat[0]
+    lon[n // 10 : n // 5] = lon[0]
+    reports = [
+        VehicleReport(f"V{k}", 0.0, float(lat[k]), float(lon[k]), 5.0, float(c))
+        for k, c in enumerate(rng.uniform(0.0, 360.0, n))
+    ]
+    courses = [None if rng.random() < 0.1 else r.course_deg for r in reports]
+    return reports, courses
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 120),
+    spread=st.sampled_from([0.0005, 0.003, 0.02]),
+    lat0=st.sampled_from([50.06, -33.9, 69.6, 0.0]),
+    d_col=st.sampled_from([300.0, 50.0, 1000.0]),
+    half=st.sampled_from([15.0, 45.0, 180.0]),
+)
+def test_whole_fleet_hits_equal_the_per_vehicle_rule(seed, n, spread, lat0, d_col, half):
+    reports, courses = _fleet(seed, n, spread, lat0)
+    rule = SectorRule(d_col_m=d_col, half_angle_deg=half)
+    rng = np.random.default_rng(seed + 1)
+    seen = rng.random(n) < 0.9
+    batch = rule.evaluate_all(reports, courses, targets=seen)
+    for k, own in enumerate(reports):
+        others = [r for j, r in enumerate(reports) if j != k and seen[j]]
+        expected = (
+            rule.evaluate(own, others, course_deg=courses[k]) if courses[k] is not None else []
+        )
+        assert batch[k] == expected
