@@ -330,3 +330,14 @@ def test_analyser_feed_bytes_takes_only_authenticated_fresh_frames():
     assert rejected["bad_signature"] == 1 and rejected["unsigned"] == 1
     assert an.replay_guard.stats["duplicate"] == 1
     assert [t.vehicle_id for t in an.assess().threats] == ["T2"]
+
+
+def test_guard_refuses_a_frame_of_before_a_restart_that_fits_the_new_window() -> None:
+    """Found by the property above: after a sender restarts its numbers, a recorded frame
+    from before the restart whose number falls in the new window was accepted again."""
+    g = ReplayGuard()
+    assert g.check(rep(64, 0.0), 0.0) is None
+    assert g.check(rep(0, 1.0), 1.0) is None  # the sender restarted
+    assert g.check(rep(65, 1.0), 1.0) is None
+    assert g.check(rep(64, 0.0), 1.0) == "replay"
+    assert g.check(rep(63, 1.0), 1.0) is None  # a late frame of the new numbering

@@ -12,7 +12,8 @@ receiver with duplicates. :class:`ReplayGuard` checks every authenticated report
   before is a ``"duplicate"``; a newer number with an older time than the sender's newest
   report is a ``"replay"``; a number below the window is a ``"replay"`` too, unless the
   report is also newer than every report of that sender so far (the sender restarted and
-  its numbers began again), which restarts the window (counted in ``stats["resync"]``).
+  its numbers began again), which restarts the window (counted in ``stats["resync"]``);
+  a number in the restarted window but dated before the restart is a ``"replay"``.
   Numbers wrap at 2**32 (serial number arithmetic, RFC 1982).
 
 A report that is rejected leaves the state unchanged, so a forged report can never move a
@@ -55,6 +56,7 @@ class _Sender:
     highest: int
     bitmap: int  # bit i set: highest - i was seen
     newest_t: float
+    restart_t: float = -math.inf  # time of the report its numbers began again with
 
 
 class ReplayGuard:
@@ -156,10 +158,12 @@ class ReplayGuard:
             if behind < self.seq_window:
                 if state.bitmap >> behind & 1:
                     return "duplicate"
+                if t < state.restart_t:  # a number of before the restart, sent again
+                    return "replay"
                 state.bitmap |= 1 << behind
             elif t > state.newest_t:  # numbers began again: the sender restarted
                 self.stats["resync"] += 1
-                state.highest, state.bitmap = seq, 1
+                state.highest, state.bitmap, state.restart_t = seq, 1, t
             else:
                 return "replay"
         state.newest_t = max(state.newest_t, t)
