@@ -64,6 +64,8 @@ class BranchModel:
         self.settings = settings
         radius = self._entry_radii(track_map, settings.probe_m)
         self._curve_speed = np.sqrt(settings.lateral_accel_mps2 * radius)
+        # per running state: the squared curve speeds of the options after its end
+        self._options: dict[tuple[int, int], tuple[float, ...]] = {}
 
     @classmethod
     def for_map(cls, track_map: TrackMap, settings: BranchSettings) -> BranchModel:
@@ -105,9 +107,16 @@ class BranchModel:
         """Comfortable speed at the entry of an edge run in a direction, m/s."""
         return float(self._curve_speed[2 * edge_id + (direction < 0)])
 
-    def _weight(self, edge: int, direction: int, arrive2: float) -> float:
-        vc = self.curve_speed_mps(edge, direction)
-        return 1.0 if arrive2 <= vc * vc else self.settings.infeasible_weight
+    def _squared_speeds(self, edge: int, direction: int) -> tuple[float, ...]:
+        """Squared curve speeds of the options at the end of an edge run one way."""
+        key = (edge, direction)
+        known = self._options.get(key)
+        if known is None:
+            options = self.net.successors(edge, direction, respect_direction=True)
+            known = self._options[key] = tuple(
+                vc * vc for vc in (self.curve_speed_mps(e, d) for e, d in options)
+            )
+        return known
 
     def path_probability(
         self, path: Path, speed_mps: float, route: tuple[int, ...] | None
@@ -129,19 +138,22 @@ class BranchModel:
         if route:
             on = set(route)
             return 1.0 if all(e in on for e in path.edges[1:]) else 0.0
-        s = self.settings
+        infeasible = self.settings.infeasible_weight
+        plan_decel = self.settings.plan_decel_mps2
+        steps = path.steps
         p = 1.0
         for k, node in enumerate(path.nodes):
-            if node.choice is None or k + 1 >= len(path.steps):
+            if node.choice is None or k + 1 >= len(steps):
                 continue
-            step = path.steps[k]
-            options = self.net.successors(step.edge_id, step.direction, respect_direction=True)
+            step = steps[k]
+            options = self._squared_speeds(step.edge_id, step.direction)
             if len(options) < 2:
                 continue
             # the square of the speed the vehicle has at the switch after braking comfortably
-            arrive2 = speed_mps * speed_mps - 2.0 * s.plan_decel_mps2 * node.distance_m
-            taken = path.steps[k + 1]
-            total = sum(self._weight(e, d, arrive2) for e, d in options)
-            mine = self._weight(taken.edge_id, taken.direction, arrive2)
+            arrive2 = speed_mps * speed_mps - 2.0 * plan_decel * node.distance_m
+            taken = steps[k + 1]
+            total = sum(1.0 if arrive2 <= v2 else infeasible for v2 in options)
+            vc = self.curve_speed_mps(taken.edge_id, taken.direction)
+            mine = 1.0 if arrive2 <= vc * vc else infeasible
             p *= mine / total if total > 0 else 0.0
         return p if math.isfinite(p) else 0.0

@@ -677,7 +677,6 @@ class Positioner:
         """Keep the best hypotheses of every vehicle, choose the reported lineage, run the
         along-track filter."""
         c = self.config
-        k = self._k
         n = len(reports)
         finite = np.isfinite(lp)
         # normalise per vehicle (candidates are grouped by vehicle, in vehicle order)
@@ -688,68 +687,40 @@ class Positioner:
         p = p / np.where(total[cv] > 0, total[cv], 1.0)
         rank_order = np.lexsort((-p, cv))
         bounds = np.searchsorted(cv[rank_order], np.arange(n + 1))
-        committed = []
-        for i in range(n):
-            row = rows[i]
-            report = reports[i]
-            if skip[i]:
-                continue  # rejected as unreachable: the state stays
-            if unmatched[i]:
-                self._f.hs[row] = -1
-                self._f.hp[row] = _NEG_INF
-                self._f.unmatched[row] = True
-                self._f.rejected[row] = 0
-                self._set_fix(row, report, t[i], speed[i], odo[i], xs[i], ys[i])
-                self.stats["unmatched"] += 1
-                continue
-            ranked = rank_order[bounds[i] : bounds[i + 1]][:k]
-            members = ranked[:1].tolist() + [
-                int(m) for m in ranked[1:] if p[m] >= c.min_probability
-            ]
-            chosen = self._choose_output(members, p, parent, bool(fresh[i]))
-            sel = np.array([chosen, *(m for m in members if m != chosen)], dtype=np.int64)
-            m = len(sel)
-            self._f.hs[row] = -1
-            self._f.hp[row] = _NEG_INF
-            self._f.hs[row, :m] = cs[sel]
-            self._f.ho[row, :m] = co[sel]
-            self._f.hp[row, :m] = np.log(np.maximum(p[sel], 1e-300))
-            self._f.hg[row, :m] = prog[sel]
-            self._f.hw[row, :m] = ww[sel]
-            for name, col in zip(("bx", "by", "pxx", "pxy", "pyy"), bias_cols, strict=True):
-                getattr(self._f, name)[row, :m] = col[sel]
-            switched = not fresh[i] and parent[chosen] != 0
-            if switched:
-                self.stats["lineage_switch"] += 1
-            self._run_filter(
-                row,
-                t[i],
-                speed[i],
-                odo[i],
-                prog[chosen],
-                restart=bool(fresh[i] or switched),
-                along_sigma=float(along_sigma[i]),
+        gone = rows[unmatched & ~skip]
+        self._f.hs[gone] = -1
+        self._f.hp[gone] = _NEG_INF
+        self._f.unmatched[gone] = True
+        self._f.rejected[gone] = 0
+        if len(gone):
+            self.stats["unmatched"] += len(gone)
+        go = np.flatnonzero(~unmatched & ~skip)  # reports committed to hypotheses
+        if len(go):
+            self._keep_hypotheses(
+                go,
+                reports,
+                rows,
+                (t, speed, odo, along_sigma),
+                (rank_order, bounds, p, parent, fresh),
+                (cs, co, prog, ww, bias_cols),
             )
-            if self.fixes.active and not fresh[i] and not switched:
-                self.fixes.track_expected(report.vehicle_id, self, row, prog[chosen])
-            self._f.unmatched[row] = False
-            self._f.rejected[row] = 0
-            self._set_fix(row, report, t[i], speed[i], odo[i], xs[i], ys[i])
-            self.stats["matched"] += 1
-            committed.append(i)
-        if not committed:
+        self._set_fixes(np.flatnonzero(~skip), reports, rows, t, speed, odo, xs, ys)
+        if not len(go):
             return
-        done = rows[np.array(committed)]
+        done = rows[go]
         self._f.place[done] = self._place_probabilities(done)
         confident = self._f.place[done] >= c.confidence
         self._f.confident_run[done] = np.where(confident, self._f.confident_run[done] + 1, 0)
-        for i in committed:
+        lost = self._f.lost
+        watch = go if self.fixes.active else [i for i in go.tolist() if lost[rows[i]] is not None]
+        for i in watch:
             row = rows[i]
-            vid = reports[i].vehicle_id
             if self._f.lost[row] is not None and self._f.confident_run[row] >= c.relocalise_after:
                 self.stats["relocalised"] += 1
                 self._f.lost[row] = None
-            missed = self.fixes.active and self.fixes.check_missed(vid, self, row)
+            if not self.fixes.active:
+                continue
+            missed = self.fixes.check_missed(reports[i].vehicle_id, self, row)
             if missed and self._f.lost[row] is None:
                 self._f.lost[row] = "missed_fixes"
                 self._f.confident_run[row] = 0
@@ -758,84 +729,152 @@ class Positioner:
         self._f.confident_run[gone] = 0
         self._f.place[gone] = 0.0
 
-    def _choose_output(
-        self, members: list[int], p: FloatArray, parent: IntArray, fresh: bool
-    ) -> int:
-        """The hypothesis the reported position follows: the best one, unless it leaves
-        the previous lineage without being decisive."""
-        best = members[0]
-        if fresh or parent[best] == 0:
-            return best
-        if p[best] >= self.config.switch_probability:
-            return best
-        for m in members[1:]:
-            if parent[m] == 0:
-                # the lineage holds only while it stays plausible
-                return m if p[m] > 1.0 - self.config.switch_probability else best
-        return best
-
-    def _run_filter(
+    def _keep_hypotheses(
         self,
-        row: int,
-        t: float,
-        speed: float,
-        odo: float,
-        progress: float,
-        *,
-        restart: bool,
-        along_sigma: float,
+        go: IntArray,
+        reports: list[VehicleReport],
+        rows: IntArray,
+        measured: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+        ranking: tuple[IntArray, IntArray, FloatArray, IntArray, npt.NDArray[np.bool_]],
+        candidates: tuple[IntArray, FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]],
     ) -> None:
-        """Fuse the reported lineage's progress (and speed or odometer) into the along-track
-        filter; ``along_sigma`` is the fix's error along the track (white and bias), m."""
+        """Store the kept hypotheses of the committed reports ``go``: the most probable
+        ``max_hypotheses`` (beyond the first only those above ``min_probability``), the one
+        the reported position follows in slot 0; then run their along-track filters.
+
+        ``measured``: time, speed, odometer and along-track sigma of each report;
+        ``ranking``: candidates in rank order, the bounds of each report's, their
+        probabilities, parent slots and whether each report starts afresh;
+        ``candidates``: state id, offset, progress, wrong-way time and GPS bias of each."""
+        c = self.config
+        rank_order, bounds, p, parent, fresh = ranking
+        cs, co, prog, ww, bias_cols = candidates
+        f = self._f
+        n_ranked = len(rank_order)
+        group = np.searchsorted(bounds, np.arange(n_ranked), side="right") - 1
+        place = np.arange(n_ranked) - bounds[group]  # rank within the report's candidates
+        ranked_p = p[rank_order]
+        member = (place < self._k) & ((place == 0) | (ranked_p >= c.min_probability))
+        member &= np.isin(group, go)
+        # the reported lineage: the best hypothesis, unless it leaves the previous lineage
+        # without being decisive (``switch_probability``) while a member of it stays
+        # plausible
+        best = rank_order[bounds[go]]
+        lineage_at = np.where(
+            member & (place > 0) & (parent[rank_order] == 0), np.arange(n_ranked), n_ranked
+        )
+        first_lineage = np.full(len(bounds), n_ranked)
+        np.minimum.at(first_lineage, group, lineage_at)
+        first_lineage = first_lineage[go]
+        has_lineage = first_lineage < n_ranked
+        lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
+        keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= c.switch_probability)
+        chosen = np.where(
+            ~keep_best & has_lineage & (p[lineage] > 1.0 - c.switch_probability), lineage, best
+        )
+        # slots: the chosen one first, then the other members in rank order
+        chosen_of = np.full(len(bounds), -1)
+        chosen_of[go] = chosen
+        m_pos = np.flatnonzero(member)
+        m_idx, m_group = rank_order[m_pos], group[m_pos]
+        m_rank = np.arange(len(m_pos)) - np.searchsorted(m_group, m_group)
+        chosen_rank = np.zeros(len(bounds), dtype=np.int64)
+        is_chosen = m_idx == chosen_of[m_group]
+        chosen_rank[m_group[is_chosen]] = m_rank[is_chosen]
+        col = np.where(is_chosen, 0, np.where(m_rank < chosen_rank[m_group], m_rank + 1, m_rank))
+        r = rows[m_group]
+        done = rows[go]
+        f.hs[done] = -1
+        f.hp[done] = _NEG_INF
+        f.hs[r, col] = cs[m_idx]
+        f.ho[r, col] = co[m_idx]
+        f.hp[r, col] = np.log(np.maximum(p[m_idx], 1e-300))
+        f.hg[r, col] = prog[m_idx]
+        f.hw[r, col] = ww[m_idx]
+        for name, values in zip(("bx", "by", "pxx", "pxy", "pyy"), bias_cols, strict=True):
+            getattr(f, name)[r, col] = values[m_idx]
+        switched = ~fresh[go] & (parent[chosen] != 0)
+        self.stats["lineage_switch"] += int(np.count_nonzero(switched))
+        self._run_filters(rows[go], measured, go, prog[chosen], restart=fresh[go] | switched)
+        if self.fixes.active:
+            for k in np.flatnonzero(~fresh[go] & ~switched).tolist():
+                i = int(go[k])
+                self.fixes.track_expected(reports[i].vehicle_id, self, rows[i], prog[chosen[k]])
+        f.unmatched[done] = False
+        f.rejected[done] = 0
+        self.stats["matched"] += len(go)
+
+    def _run_filters(
+        self,
+        done: IntArray,
+        measured: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+        go: IntArray,
+        progress: FloatArray,
+        *,
+        restart: npt.NDArray[np.bool_],
+    ) -> None:
+        """Fuse each reported lineage's progress (and speed or odometer) into the vehicles'
+        along-track filters (rows ``done``, reports ``go``); the along-track sigma is the
+        fix's error along the track (white and bias), m."""
         c = self.config
         kf = self._f.kf
-        along = along_sigma
-        if restart or math.isnan(kf.t[row]):
-            kf.t[row], kf.s[row], kf.v[row] = t, progress, speed
-            kf.pss[row] = along * along
-            kf.psv[row] = 0.0
-            kf.pvv[row] = (2.0 * c.speed_sigma_mps) ** 2
-            self.stats["filter_reset"] += 1
-        else:
-            odo_prev = self._f.odo[row]
-            if math.isfinite(odo) and math.isfinite(odo_prev):
-                track_odometer_step(
-                    kf,
-                    row,
-                    np.float64(t),
-                    np.float64(max(odo - odo_prev, 0.0)),
-                    c.odometer_sigma_fraction,
-                )
-                v_meas = None
-            else:
-                track_predict(kf, row, np.float64(t), c.accel_sigma_mps2)
-                v_meas = np.float64(speed)
-            nis = track_update(
-                kf, row, np.float64(progress), np.float64(along), v_meas, c.speed_sigma_mps
+        t_all, speed_all, odo_all, along_all = measured
+        t, speed, odo, along = t_all[go], speed_all[go], odo_all[go], along_all[go]
+        reset = restart | np.isnan(kf.t[done])
+        r = done[reset]
+        kf.t[r], kf.s[r], kf.v[r] = t[reset], progress[reset], speed[reset]
+        kf.pss[r] = along[reset] * along[reset]
+        kf.psv[r] = 0.0
+        kf.pvv[r] = (2.0 * c.speed_sigma_mps) ** 2
+        resets = int(np.count_nonzero(reset))
+        odo_prev = self._f.odo[done]
+        wheels = ~reset & np.isfinite(odo) & np.isfinite(odo_prev)
+        gps = ~reset & ~wheels
+        nis = np.zeros(len(done))
+        if wheels.any():
+            r = done[wheels]
+            track_odometer_step(
+                kf,
+                r,
+                t[wheels],
+                np.maximum(odo[wheels] - odo_prev[wheels], 0.0),
+                c.odometer_sigma_fraction,
             )
-            if abs(float(nis)) > c.nis_gate:
-                kf.s[row] = progress
-                kf.pss[row] = along * along
-                kf.psv[row] = 0.0
-                self.stats["filter_reset"] += 1
-        self._f.z[row] = progress
+            nis[wheels] = track_update(
+                kf, r, progress[wheels], along[wheels], None, c.speed_sigma_mps
+            )
+        if gps.any():
+            r = done[gps]
+            track_predict(kf, r, t[gps], c.accel_sigma_mps2)
+            nis[gps] = track_update(kf, r, progress[gps], along[gps], speed[gps], c.speed_sigma_mps)
+        gate = ~reset & (np.abs(nis) > c.nis_gate)
+        r = done[gate]
+        kf.s[r] = progress[gate]
+        kf.pss[r] = along[gate] * along[gate]
+        kf.psv[r] = 0.0
+        self.stats["filter_reset"] += resets + int(np.count_nonzero(gate))
+        self._f.z[done] = progress
 
-    def _set_fix(
+    def _set_fixes(
         self,
-        row: int,
-        report: VehicleReport,
-        t: float,
-        speed: float,
-        odo: float,
-        x: float,
-        y: float,
+        which: IntArray,
+        reports: list[VehicleReport],
+        rows: IntArray,
+        t: FloatArray,
+        speed: FloatArray,
+        odo: FloatArray,
+        xs: FloatArray,
+        ys: FloatArray,
     ) -> None:
-        self._f.t[row] = self._f.t_fix[row] = t
-        self._f.x[row], self._f.y[row] = x, y
-        self._f.v[row] = speed
-        self._f.odo[row] = odo
-        self._f.odo_fix[row] = odo
-        self._f.last[row] = report
+        """Remember the fixes ``which`` as the vehicles' latest."""
+        f = self._f
+        r = rows[which]
+        f.t[r] = f.t_fix[r] = t[which]
+        f.x[r], f.y[r] = xs[which], ys[which]
+        f.v[r] = speed[which]
+        f.odo[r] = f.odo_fix[r] = odo[which]
+        for i in which.tolist():
+            f.last[rows[i]] = reports[i]
 
     # -- outputs -------------------------------------------------------------------------
     def _hypotheses(self, row: int) -> tuple[Hypothesis, ...]:
