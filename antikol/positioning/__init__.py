@@ -1,7 +1,11 @@
 """Track-selective positioning: candidates → HMM over (edge, direction) → along-track filter.
 
 * :mod:`antikol.positioning.matcher` — the :class:`Positioner` (online HMM with a GPS bias
-  per hypothesis, physics checks, odometer dead reckoning), vectorised over a fleet;
+  per hypothesis, physics checks, the reported lineage), vectorised over a fleet, with its
+  parts: :mod:`~antikol.positioning.candidates` (places near each fix),
+  :mod:`~antikol.positioning.scoring` (one HMM step), :mod:`~antikol.positioning.fleet`
+  (the state arrays) and :mod:`~antikol.positioning.deadreckoning` (moving along the track
+  without a fix);
 * :mod:`antikol.positioning.reach` — along-track distances between track states;
 * :mod:`antikol.positioning.kalman` — closed-form along-track and bias filters;
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);

@@ -39,22 +39,25 @@ import logging
 import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import shapely
-import shapely.ops
 
 from antikol.kinds import PositionStatus
+from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.deadreckoning import advance, dead_reckon
 from antikol.positioning.fixes import DiscreteFixes
+from antikol.positioning.fleet import (
+    SLOT_FIELDS,
+    VEHICLE_FIELDS,
+    FleetState,
+    json_float,
+    report_dict,
+)
 from antikol.positioning.kalman import (
-    BiasState,
-    TrackFilterState,
-    bias_predict,
-    bias_update,
     track_estimate,
     track_odometer_step,
     track_predict,
@@ -62,9 +65,9 @@ from antikol.positioning.kalman import (
 )
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
+from antikol.positioning.scoring import Scored, score_fixes
 from antikol.report import VehicleReport
-from antikol.thresholds import MAX_PATHS_SEARCH
-from trackmap import Path, TrackMap
+from trackmap import TrackMap
 
 __all__ = [
     "DiscreteFix",
@@ -83,8 +86,6 @@ _NEG_INF = -math.inf
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Hypotheses this close (m) across a plain node are the same place.
 _SAME_PLACE_M = 3.0
-#: A fix may lie this far beyond an edge's end (along it) and still be a candidate of it, m.
-_END_OVERSHOOT_M = 2.0
 
 
 class Positioner:
@@ -115,11 +116,11 @@ class Positioner:
         self.fixes = DiscreteFixes(track_map, self.config, fix_points, fix_equipped)
         self._k = self.config.max_hypotheses
         self._row: dict[str, int] = {}
-        self._f = _Fleet(self._k)
+        self._f = FleetState(self._k)
         self._f.grow(64)
         self._free: list[int] = list(range(63, -1, -1))
         self._cache: dict[str, TrackPosition] = {}
-        self._loops = _loop_edges(track_map, self.config.search_radius_m)
+        self._loops = loop_edges(track_map, self.config.search_radius_m)
 
     # -- fleet storage -------------------------------------------------------------------
     def _row_of(self, vehicle_id: str) -> int:
@@ -275,7 +276,9 @@ class Positioner:
         # 2. reports without a position fix: dead reckoning on the odometer, if any
         dr = keep & no_fix
         for i in np.flatnonzero(dr):
-            self._dead_reckon(reports[i], rows[i], odo[i])
+            dead_reckon(
+                self._f, self.reach, self.net, self.config, self.stats, rows[i], reports[i], odo[i]
+            )
         fix = keep & ~no_fix
         if not fix.any():
             return
@@ -317,85 +320,6 @@ class Positioner:
         out[speed > c.max_speed_mps] = "speed"
         return out.astype(str)
 
-    def _dead_reckon(self, report: VehicleReport, row: int, odometer: float) -> None:
-        """A report without a position: advance on the odometer, or only note the time."""
-        self._last_report(row, report)
-        if not math.isfinite(odometer) or not math.isfinite(self._f.odo[row]):
-            self.stats["no_fix"] += 1
-            if math.isfinite(odometer):
-                self._f.odo[row] = odometer
-            return
-        travelled = max(odometer - self._f.odo[row], 0.0)
-        self.stats["odometer_dead_reckoning"] += 1
-        if not math.isnan(self._f.kf.t[row]):
-            track_odometer_step(
-                self._f.kf,
-                row,
-                np.float64(report.t),
-                np.float64(travelled),
-                self.config.odometer_sigma_fraction,
-            )
-        self._carry(row, travelled, report.route)
-        self._f.z[row] += travelled
-        self._f.odo[row] = odometer
-        self._f.t[row] = report.t
-        self._f.v[row] = report.speed_mps  # the wheel speed: the next physics check needs it
-
-    def _carry(self, row: int, travelled_m: float, route: tuple[int, ...] | None) -> None:
-        """Move every hypothesis of a vehicle ``travelled_m`` along the track (odometer dead
-        reckoning). Where the track branches, each branch becomes a hypothesis of its own
-        (equally likely, or the planned route's): the next fix decides."""
-        f = self._f
-        slots = np.flatnonzero(f.hs[row] >= 0)
-        grown: list[tuple[float, int, float, int]] = []  # log-p, state, offset, parent slot
-        for k in slots.tolist():
-            s = int(f.hs[row, k])
-            edge, off, d = s >> 1, float(f.ho[row, k]), 1 - 2 * (s & 1)
-            moved = off + d * travelled_m
-            length = float(self.reach.lengths[edge])
-            if 0.0 <= moved <= length or travelled_m < 1e-6:
-                grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
-                continue
-            paths = self.net.paths_ahead(
-                edge,
-                off,
-                d,
-                travelled_m,
-                respect_direction=bool(self.reach.allowed[s]),
-                max_paths=MAX_PATHS_SEARCH,
-            )
-            if route and paths:
-                paths = [_preferred_path(paths, route)]
-            if not paths:
-                grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
-                continue
-            share = math.log(1.0 / len(paths))
-            for p in paths:
-                last = p.steps[-1]
-                sid = int(state_id(last.edge_id, last.direction))
-                grown.append((float(f.hp[row, k]) + share, sid, last.exit_offset_m, k))
-        if not grown:
-            return
-        first = max((g for g in grown if g[3] == 0), key=lambda g: g[0], default=None)
-        rest = sorted((g for g in grown if g is not first), key=lambda g: -g[0])
-        kept = ([first] if first is not None else []) + rest
-        kept = kept[: self._k]
-        parents = np.array([g[3] for g in kept])
-        cols = {name: getattr(f, name)[row, parents].copy() for name in _SLOT_FIELDS}
-        f.hs[row] = -1
-        f.hp[row] = _NEG_INF
-        m = len(kept)
-        f.hs[row, :m] = [g[1] for g in kept]
-        for name, values in cols.items():
-            getattr(f, name)[row, :m] = values
-        f.ho[row, :m] = [g[2] for g in kept]
-        lp = np.array([g[0] for g in kept])
-        f.hp[row, :m] = lp - np.logaddexp.reduce(lp)
-        f.hg[row, :m] += travelled_m
-
-    def _last_report(self, row: int, report: VehicleReport) -> None:
-        self._f.last[row] = report
-
     # -- the fusion of position fixes ----------------------------------------------------
     def _fuse(
         self,
@@ -407,250 +331,15 @@ class Positioner:
         xs: FloatArray,
         ys: FloatArray,
     ) -> None:
-        c = self.config
-        n = len(reports)
-        hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
-        scales = np.array([c.error_scales(r.fix_quality) for r in reports], dtype=float)
-        sigma = scales[:, 0] * hdop
-        bias_sigma = scales[:, 1] * hdop
-        radius = np.maximum(c.search_radius_m, 4.0 * sigma)
-        found = self._candidates(xs, ys, radius)
-        # one candidate state per (candidate place, running direction)
-        cv = np.repeat(found.point, 2)  # report index of each candidate state
-        edge = np.repeat(found.edge_id, 2)
-        direction = np.tile(np.array([1, -1]), len(found.point))
-        cs = state_id(edge, direction)
-        co = np.repeat(found.offset_m, 2)
-        lateral = np.repeat(found.lateral_m, 2)
-        heading = np.repeat(found.heading_deg, 2)
-        wrong = ~self.reach.allowed[cs]
+        def find(x: FloatArray, y: FloatArray, radius: FloatArray) -> Candidates:
+            return find_candidates(self.net, self._loops, x, y, radius)
 
-        prev_t = self._f.t[rows]
-        dt = np.where(np.isfinite(prev_t), t - prev_t, 0.0)
-        odo_prev = self._f.odo[rows]
-        has_odo = np.isfinite(odo) & np.isfinite(odo_prev)
-        travelled = np.where(
-            has_odo,
-            np.maximum(odo - np.where(has_odo, odo_prev, 0.0), 0.0),
-            0.5 * (speed + self._f.v[rows]) * dt,
+        scored = score_fixes(
+            self._f, self.reach, self.config, find, reports, rows, t, speed, odo, xs, ys
         )
-        fresh = (
-            (self._f.hs[rows, 0] < 0)
-            | self._f.unmatched[rows]
-            | ~np.isfinite(prev_t)
-            | (dt > c.reset_gap_s)
-        )
-        counts = np.bincount(cv, minlength=n)
-        unmatched = counts == 0
-
-        # emission parts that do not depend on the parent: course and the wrong-way cost
-        course = np.fromiter((r.course_deg for r in reports), float, n)
-        use_course = speed >= c.min_speed_for_course_mps
-        course_sigma = np.hypot(c.course_sigma_deg, c.course_noise_deg_mps / np.maximum(speed, 0.1))
-        track_dir = heading + np.where(direction == 1, 0.0, 180.0)
-        diff = (course[cv] - track_dir + 180.0) % 360.0 - 180.0
-        gauss = np.exp(-0.5 * (diff / course_sigma[cv]) ** 2) / (
-            course_sigma[cv] * math.sqrt(2.0 * math.pi)
-        )
-        course_ll = np.where(
-            use_course[cv],
-            np.log((1.0 - c.course_outlier_weight) * gauss + c.course_outlier_weight / 360.0),
-            0.0,
-        )
-        h = np.radians(heading)
-        nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
-        static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
-        weight = np.where(travelled < c.standstill_distance_m, c.standstill_evidence_weight, 1.0)
-        noise_var = (sigma * sigma)[cv]
-        floor = c.outlier_weight / (2.0 * radius[cv])
-
-        # pairs: every candidate state with every slot of its vehicle's previous hypotheses
-        k = self._k
-        prow = rows[cv]
-        ps = self._f.hs[prow]  # (m, k)
-        valid = (ps >= 0) & ~fresh[cv][:, None]
-        pss = np.where(valid, ps, 0)
-        po = self._f.ho[prow]
-        exp_m = travelled[cv][:, None]
-        dist = self.reach.signed_distance(
-            pss, po, np.repeat(cs[:, None], k, 1), np.repeat(co[:, None], k, 1), expected_m=exp_m
-        )
-        beta = np.where(
-            has_odo,
-            0.3 * c.transition_beta_m + 0.02 * travelled,
-            c.transition_beta_m + 0.1 * travelled,
-        )[cv][:, None]
-        trans = -np.abs(dist - exp_m) / beta
-        # a standing vehicle may change direction (bidirectional trams at termini)
-        reversal = ((pss >> 1) == (cs >> 1)[:, None]) & ((pss & 1) != (cs & 1)[:, None])
-        rev_ok = reversal & (exp_m < 1.0)
-        rev_dist = np.abs(co[:, None] - po)
-        trans = np.where(rev_ok, c.reversal_log_prior - rev_dist / beta, trans)
-        dist = np.where(rev_ok, rev_dist, dist)
-        enters_wrong = wrong[:, None] & self.reach.allowed[pss]
-        trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
-        trans = np.where(valid & np.isfinite(trans), trans, _NEG_INF)
-
-        parent = BiasState(
-            self._f.bx[prow],
-            self._f.by[prow],
-            self._f.pxx[prow],
-            self._f.pxy[prow],
-            self._f.pyy[prow],
-        )
-        prior = bias_predict(parent, dt[cv][:, None], bias_sigma[cv][:, None], c.bias_tau_s)
-        post, resid, var = bias_update(
-            prior, nx[:, None], ny[:, None], lateral[:, None], noise_var[:, None]
-        )
-        lat_ll = np.log(
-            (1.0 - c.outlier_weight)
-            * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
-            / math.sqrt(2.0 * math.pi)
-            + floor[:, None]
-        )
-        emit = (lat_ll + static_ll[:, None]) * weight[cv][:, None]
-        score = self._f.hp[prow] + trans + emit
-        best = np.argmax(score, axis=1)
-        ar = np.arange(len(cs))
-        top = score[ar, best]
-        with np.errstate(invalid="ignore"):
-            lse = top + np.log(np.sum(np.exp(score - top[:, None]), axis=1))
-        lse = np.where(np.isfinite(top), lse, _NEG_INF)
-
-        # fresh starts: the emission alone, with the stationary bias prior
-        start = BiasState.prior(len(cs), bias_sigma[cv])
-        post0, resid0, var0 = bias_update(start, nx, ny, lateral, noise_var)
-        lat0 = np.log(
-            (1.0 - c.outlier_weight)
-            * np.exp(-0.5 * resid0 * resid0 / var0 - 0.5 * np.log(var0))
-            / math.sqrt(2.0 * math.pi)
-            + floor
-        )
-        score0 = lat0 + static_ll + np.where(wrong, c.wrong_way_entry_log_prior, 0.0)
-
-        # vehicles whose previous hypotheses reach no candidate: a jump the map cannot explain
-        cont = ~fresh[cv]
-        reach_any = np.zeros(n, bool)
-        np.logical_or.at(reach_any, cv, np.isfinite(lse) & cont)
-        stuck = ~fresh & ~unmatched & ~reach_any
-        for i in np.flatnonzero(stuck):
-            row = rows[i]
-            self.stats["unreachable_fix"] += 1
-            self._f.rejected[row] += 1
-            if self._f.rejected[row] < c.max_rejections_in_row:
-                continue
-            self.stats["reset_after_rejections"] += 1
-            self._f.rejected[row] = 0
-            fresh[i] = True
-        use0 = fresh[cv]
-        # the vehicle may be where its previous hypotheses cannot reach (a track missing
-        # from the map, a wrong connection): a small prior keeps the filter from holding on
-        # to an impossible history
-        relocate = score0 + c.relocation_log_prior
-        moved = ~use0 & (relocate > top)
-        lse = np.where(use0, lse, np.logaddexp(lse, relocate))
-        if moved.any():
-            self.stats["relocated"] += int(np.count_nonzero(moved))
-        use0 = use0 | moved
-        new_lp = np.where(fresh[cv], score0, lse)
-        new_prog = np.where(use0, 0.0, self._f.hg[prow][ar, best] + dist[ar, best])
-        new_parent = np.where(use0, -1, best)
-        new_ww = np.where(wrong, np.where(use0, 0.0, self._f.hw[prow][ar, best] + dt[cv]), 0.0)
-
-        def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
-            return np.where(use0, a0, a[ar, best])
-
-        bias_cols = (
-            pick(post0.bx, post.bx),
-            pick(post0.by, post.by),
-            pick(post0.pxx, post.pxx),
-            pick(post0.pxy, post.pxy),
-            pick(post0.pyy, post.pyy),
-        )
-        self._commit(
-            reports,
-            rows,
-            t,
-            speed,
-            odo,
-            xs,
-            ys,
-            unmatched,
-            stuck & ~fresh,
-            fresh,
-            cv,
-            cs,
-            co,
-            new_lp,
-            new_prog,
-            new_parent,
-            new_ww,
-            bias_cols,
-            np.hypot(sigma, bias_sigma),
-        )
-
-    def _candidates(self, xs: FloatArray, ys: FloatArray, radius: FloatArray) -> _Found:
-        """Places on the tracks near each fix: the nearest point of every edge in reach,
-        and on a loop the nearest point of its other half too (where a turning loop closes,
-        its start and end lie metres apart and the fix may belong to either)."""
-        batch = self.net.candidates_batch_xy(xs, ys, float(radius.max()))
-        order = np.lexsort((batch.edge_id, batch.point))
-        pt = batch.point[order]
-        # a fix beyond an edge's end projects onto that end: the neighbouring edge holds it
-        # (a candidate there would turn an along-track miss into a small "lateral" offset)
-        overshoot = np.sqrt(
-            np.maximum(batch.distance_m[order] ** 2 - batch.lateral_m[order] ** 2, 0.0)
-        )
-        within = (batch.distance_m[order] <= radius[pt]) & (overshoot <= _END_OVERSHOOT_M)
-        order, pt = order[within], pt[within]
-        found = _Found(
-            pt,
-            batch.edge_id[order],
-            batch.offset_m[order],
-            # beyond an end by less than the tolerance: the whole distance is the offset
-            np.copysign(batch.distance_m[order], batch.lateral_m[order]),
-            batch.heading_deg[order],
-        )
-        loops = self._loops
-        if not loops:
-            return found
-        extra = [k for k, e in enumerate(found.edge_id.tolist()) if e in loops]
-        if not extra:
-            return found
-        rows: list[tuple[int, int, float, float, float]] = []
-        for k in extra:
-            e = int(found.edge_id[k])
-            half, geom = loops[e]
-            i = int(found.point[k])
-            pt_geom = shapely.Point(xs[i], ys[i])
-            other = (half, geom.length) if found.offset_m[k] < half else (0.0, half)
-            part = shapely.ops.substring(geom, *other)
-            off = other[0] + float(part.project(pt_geom))
-            p = geom.interpolate(off)
-            dist = float(p.distance(pt_geom))
-            if dist > radius[i] or abs(off - found.offset_m[k]) < 2.0 * radius[i]:
-                continue
-            a, b = (
-                geom.interpolate(max(off - 0.5, 0.0)),
-                geom.interpolate(min(off + 0.5, geom.length)),
-            )
-            tx, ty = b.x - a.x, b.y - a.y
-            side = tx * (pt_geom.y - p.y) - ty * (pt_geom.x - p.x)
-            rows.append(
-                (i, e, off, math.copysign(dist, side), math.degrees(math.atan2(tx, ty)) % 360.0)
-            )
-        if not rows:
-            return found
-        add = np.array(rows, dtype=float)
-        merged = _Found(
-            np.concatenate([found.point, add[:, 0].astype(np.int64)]),
-            np.concatenate([found.edge_id, add[:, 1].astype(np.int64)]),
-            np.concatenate([found.offset_m, add[:, 2]]),
-            np.concatenate([found.lateral_m, add[:, 3]]),
-            np.concatenate([found.heading_deg, add[:, 4]]),
-        )
-        keep = np.lexsort((merged.edge_id, merged.point))
-        return _Found(*(a[keep] for a in merged))
+        self.stats.update(scored.stats)
+        self._f.rejected[rows] = scored.rejected
+        self._commit(reports, rows, t, speed, odo, xs, ys, scored)
 
     def _commit(
         self,
@@ -661,23 +350,16 @@ class Positioner:
         odo: FloatArray,
         xs: FloatArray,
         ys: FloatArray,
-        unmatched: npt.NDArray[np.bool_],
-        skip: npt.NDArray[np.bool_],
-        fresh: npt.NDArray[np.bool_],
-        cv: IntArray,
-        cs: IntArray,
-        co: FloatArray,
-        lp: FloatArray,
-        prog: FloatArray,
-        parent: IntArray,
-        ww: FloatArray,
-        bias_cols: tuple[FloatArray, ...],
-        along_sigma: FloatArray,
+        scored: Scored,
     ) -> None:
         """Keep the best hypotheses of every vehicle, choose the reported lineage, run the
         along-track filter."""
         c = self.config
         n = len(reports)
+        unmatched, skip, fresh = scored.unmatched, scored.stuck, scored.fresh
+        cv, cs, co, lp = scored.cv, scored.cs, scored.co, scored.log_p
+        prog, parent, ww = scored.progress, scored.parent, scored.wrong_way_s
+        bias_cols, along_sigma = scored.bias, scored.along_sigma
         finite = np.isfinite(lp)
         # normalise per vehicle (candidates are grouped by vehicle, in vehicle order)
         vmax = np.full(n, _NEG_INF)
@@ -934,7 +616,8 @@ class Positioner:
         s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
         hyps = self._hypotheses(row)
         first = hyps[0]
-        edge, off, direction = self._advance(
+        edge, off, direction = advance(
+            self.net,
             first.edge_id,
             first.offset_m,
             first.direction,
@@ -976,40 +659,6 @@ class Positioner:
             dead_reckoned_s=max(age, 0.0),
         )
 
-    def _advance(
-        self,
-        edge: int,
-        offset: float,
-        direction: int,
-        distance_m: float,
-        report: VehicleReport | None,
-        *,
-        wrong: bool,
-    ) -> tuple[int, float, int]:
-        """Move a track position by a signed distance along its most probable path."""
-        if abs(distance_m) < 1e-6:
-            return edge, offset, direction
-        length = self.net.edge_length(edge)
-        moved = offset + direction * distance_m
-        if 0.0 <= moved <= length:  # the common case: still on the same edge
-            return edge, moved, direction
-        if distance_m > 0:
-            paths = self.net.paths_ahead(
-                edge,
-                offset,
-                direction,
-                distance_m,
-                respect_direction=not wrong,
-                max_paths=MAX_PATHS_SEARCH,
-            )
-            if not paths:
-                return edge, min(max(moved, 0.0), length), direction
-            last = _preferred_path(paths, report.route if report is not None else None).steps[-1]
-            return last.edge_id, last.exit_offset_m, last.direction
-        # behind the start of the edge: the filter lags the matched lineage by a few metres;
-        # guessing a branch behind would be worse than stopping at the node
-        return edge, min(max(moved, 0.0), length), direction
-
     # -- discrete fixes ------------------------------------------------------------------
     def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:
         """Apply a discrete position fix (a balise or loop crossing).
@@ -1044,7 +693,8 @@ class Positioner:
         c = self.config
         s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
         first = self._hypotheses(row)[0]
-        edge, off, d = self._advance(
+        edge, off, d = advance(
+            self.net,
             first.edge_id,
             first.offset_m,
             first.direction,
@@ -1100,16 +750,16 @@ class Positioner:
             "states": [int(self._f.hs[row, k]) for k in slots],
             "slots": per_slot,
             "vehicle": {
-                name: _json_float(getattr(self._f, name)[row])
+                name: json_float(getattr(self._f, name)[row])
                 for name in ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
             },
-            "filter": [_json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
+            "filter": [json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
             "rejected_in_row": int(self._f.rejected[row]),
             "confident_in_row": int(self._f.confident_run[row]),
             "unmatched": bool(self._f.unmatched[row]),
             "lost": self._f.lost[row],
             "fixes": self.fixes.state(vehicle_id),
-            "last_report": None if last is None else _report_dict(last),
+            "last_report": None if last is None else report_dict(last),
         }
 
     def restore(self, vehicle_id: str, data: dict[str, Any]) -> None:
@@ -1120,10 +770,10 @@ class Positioner:
         m = len(states)
         self._f.hs[row, :m] = states
         for name, values in data["slots"].items():
-            if name in _SLOT_FIELDS:
+            if name in SLOT_FIELDS:
                 getattr(self._f, name)[row, :m] = values[:m]
         for name, value in data["vehicle"].items():
-            if name in _VEHICLE_FIELDS:
+            if name in VEHICLE_FIELDS:
                 getattr(self._f, name)[row] = math.nan if value is None else value
         kf = self._f.kf
         for arr, value in zip(
@@ -1138,151 +788,3 @@ class Positioner:
         lr = data["last_report"]
         self._f.last[row] = None if lr is None else VehicleReport(**lr)
         self._f.place[row] = self._place_probabilities(np.array([row]))[0] if m else 0.0
-
-
-@dataclass(frozen=True, slots=True)
-class _Found:
-    """Candidate places of a batch of fixes (parallel arrays, grouped by fix)."""
-
-    point: IntArray  # index of the fix
-    edge_id: IntArray
-    offset_m: FloatArray
-    lateral_m: FloatArray  # signed distance from the track, m (left positive)
-    heading_deg: FloatArray  # track heading in the edge's vertex order
-
-    def __iter__(self) -> Any:
-        return iter((self.point, self.edge_id, self.offset_m, self.lateral_m, self.heading_deg))
-
-
-def _loop_edges(net: TrackMap, radius_m: float) -> dict[int, tuple[float, Any]]:
-    """Edges that come back near their own start (turning loops): their half-length and
-    geometry, m."""
-    out = {}
-    for e in net.edges:
-        g = e.geometry
-        start, end = g.coords[0], g.coords[-1]
-        if math.dist(start, end) < 2.0 * radius_m and g.length > 6.0 * radius_m:
-            out[e.edge_id] = (g.length / 2.0, g)
-    return out
-
-
-#: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
-_SLOT_FIELDS = ("ho", "hp", "hg", "hw", "bx", "by", "pxx", "pxy", "pyy")
-#: Per-vehicle float arrays of the fleet state.
-_VEHICLE_FIELDS = ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
-
-
-@dataclass
-class _Fleet:
-    """The positioning state of every vehicle, as arrays (one row per vehicle).
-
-    Hypothesis slots hold, per vehicle, up to ``k`` places; slot 0 is the one the reported
-    position follows. State ids pack (edge, running direction), see
-    :mod:`antikol.positioning.reach`; ``-1`` marks an empty slot.
-    """
-
-    k: int
-    # per hypothesis (vehicles x k): state id, offset on the edge (m), log-probability,
-    # progress along its history (m), time running wrong way (s), GPS bias east and
-    # north (m) and its covariance (m²)
-    hs: IntArray = field(init=False)
-    ho: FloatArray = field(init=False)
-    hp: FloatArray = field(init=False)
-    hg: FloatArray = field(init=False)
-    hw: FloatArray = field(init=False)
-    bx: FloatArray = field(init=False)
-    by: FloatArray = field(init=False)
-    pxx: FloatArray = field(init=False)
-    pxy: FloatArray = field(init=False)
-    pyy: FloatArray = field(init=False)
-    # per vehicle: last fix time (s), local position (m), reported speed (m/s), odometer
-    # (m), odometer and time at the last GPS position, lineage progress at the last fix (m),
-    # probability of the reported place, rejections and confident matches in a row
-    t: FloatArray = field(init=False)
-    x: FloatArray = field(init=False)
-    y: FloatArray = field(init=False)
-    v: FloatArray = field(init=False)
-    odo: FloatArray = field(init=False)
-    odo_fix: FloatArray = field(init=False)
-    t_fix: FloatArray = field(init=False)
-    z: FloatArray = field(init=False)
-    place: FloatArray = field(init=False)
-    rejected: IntArray = field(init=False)
-    confident_run: IntArray = field(init=False)
-    unmatched: npt.NDArray[np.bool_] = field(init=False)
-    kf: TrackFilterState = field(init=False)
-    last: list[VehicleReport | None] = field(init=False, default_factory=list)
-    lost: list[str | None] = field(init=False, default_factory=list)
-
-    def __post_init__(self) -> None:
-        k = self.k
-        self.hs = np.zeros((0, k), np.int64)
-        for name in _SLOT_FIELDS:
-            setattr(self, name, np.zeros((0, k)))
-        for name in (*_VEHICLE_FIELDS, "place"):
-            setattr(self, name, np.zeros(0))
-        self.rejected = np.zeros(0, np.int64)
-        self.confident_run = np.zeros(0, np.int64)
-        self.unmatched = np.zeros(0, bool)
-        self.kf = TrackFilterState.empty(0)
-
-    def grow(self, n: int) -> None:
-        """Extend every array to ``n`` rows (new rows cleared)."""
-        old = len(self.t)
-        if n <= old:
-            return
-        for name in (
-            "hs",
-            *_SLOT_FIELDS,
-            *_VEHICLE_FIELDS,
-            "place",
-            "rejected",
-            "confident_run",
-            "unmatched",
-        ):
-            arr = getattr(self, name)
-            extra = np.zeros((n - old, *arr.shape[1:]), arr.dtype)
-            setattr(self, name, np.concatenate([arr, extra]))
-        self.kf.grow(n)
-        self.last.extend([None] * (n - old))
-        self.lost.extend([None] * (n - old))
-        for row in range(old, n):
-            self.clear(row)
-
-    def clear(self, row: int) -> None:
-        """Empty one row (a new or forgotten vehicle)."""
-        self.hs[row] = -1
-        self.hp[row] = -math.inf
-        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix"):
-            getattr(self, name)[row] = np.nan
-        self.v[row] = self.z[row] = self.place[row] = 0.0
-        self.rejected[row] = self.confident_run[row] = 0
-        self.unmatched[row] = False
-        self.kf.t[row] = np.nan
-        self.last[row] = None
-        self.lost[row] = None
-
-
-def _json_float(value: float) -> float | None:
-    v = float(value)
-    return None if math.isnan(v) else v
-
-
-def _preferred_path(paths: list[Path], route: tuple[int, ...] | None) -> Path:
-    """The path a vehicle most probably takes: along its route, else the straightest."""
-    if route:
-        on_route = set(route)
-        scored = [(sum(1 for e in p.edges if e in on_route), p) for p in paths]
-        top = max(s for s, _ in scored)
-        if top > 1:
-            return next(p for s, p in scored if s == top)
-    return min(paths, key=lambda p: sum(1 for n in p.nodes if n.choice not in (None, "straight")))
-
-
-def _report_dict(r: VehicleReport) -> dict[str, Any]:
-    d = {name: getattr(r, name) for name in r.__dataclass_fields__}
-    if d.get("track_position") is not None:
-        d["track_position"] = None  # not needed to resume positioning
-    if d.get("route") is not None:
-        d["route"] = list(d["route"])
-    return d

@@ -1,0 +1,167 @@
+"""Moving a track position without a position fix: along the track, by a distance.
+
+A vehicle without a GPS fix but with an odometer is carried along the track by the distance
+its wheels ran (:func:`dead_reckon`); where the track branches each branch becomes a
+hypothesis of its own and the next fix decides (:func:`carry`). Between reports a vehicle's
+position is moved along its most probable path (:func:`advance`): its planned route, else
+the straightest way (:func:`preferred_path`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import numpy as np
+
+from antikol.positioning.config import PositioningConfig
+from antikol.positioning.fleet import SLOT_FIELDS, FleetState
+from antikol.positioning.kalman import track_odometer_step
+from antikol.positioning.reach import ReachTable, state_id
+from antikol.report import VehicleReport
+from antikol.thresholds import MAX_PATHS_SEARCH
+from trackmap import Path, TrackMap
+
+__all__ = ["advance", "carry", "dead_reckon", "preferred_path"]
+
+_NEG_INF = -math.inf
+
+
+def dead_reckon(
+    fleet: FleetState,
+    reach: ReachTable,
+    net: TrackMap,
+    config: PositioningConfig,
+    stats: Counter[str],
+    row: int,
+    report: VehicleReport,
+    odometer: float,
+) -> None:
+    """A report without a position: advance on the odometer, or only note the time."""
+    fleet.last[row] = report
+    if not math.isfinite(odometer) or not math.isfinite(fleet.odo[row]):
+        stats["no_fix"] += 1
+        if math.isfinite(odometer):
+            fleet.odo[row] = odometer
+        return
+    travelled = max(odometer - fleet.odo[row], 0.0)
+    stats["odometer_dead_reckoning"] += 1
+    if not math.isnan(fleet.kf.t[row]):
+        track_odometer_step(
+            fleet.kf,
+            row,
+            np.float64(report.t),
+            np.float64(travelled),
+            config.odometer_sigma_fraction,
+        )
+    carry(fleet, reach, net, row, travelled, report.route)
+    fleet.z[row] += travelled
+    fleet.odo[row] = odometer
+    fleet.t[row] = report.t
+    fleet.v[row] = report.speed_mps  # the wheel speed: the next physics check needs it
+
+
+def carry(
+    fleet: FleetState,
+    reach: ReachTable,
+    net: TrackMap,
+    row: int,
+    travelled_m: float,
+    route: tuple[int, ...] | None,
+) -> None:
+    """Move every hypothesis of a vehicle ``travelled_m`` along the track (odometer dead
+    reckoning). Where the track branches, each branch becomes a hypothesis of its own
+    (equally likely, or the planned route's): the next fix decides."""
+    f = fleet
+    slots = np.flatnonzero(f.hs[row] >= 0)
+    grown: list[tuple[float, int, float, int]] = []  # log-p, state, offset, parent slot
+    for k in slots.tolist():
+        s = int(f.hs[row, k])
+        edge, off, d = s >> 1, float(f.ho[row, k]), 1 - 2 * (s & 1)
+        moved = off + d * travelled_m
+        length = float(reach.lengths[edge])
+        if 0.0 <= moved <= length or travelled_m < 1e-6:
+            grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
+            continue
+        paths = net.paths_ahead(
+            edge,
+            off,
+            d,
+            travelled_m,
+            respect_direction=bool(reach.allowed[s]),
+            max_paths=MAX_PATHS_SEARCH,
+        )
+        if route and paths:
+            paths = [preferred_path(paths, route)]
+        if not paths:
+            grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
+            continue
+        share = math.log(1.0 / len(paths))
+        for p in paths:
+            last = p.steps[-1]
+            sid = int(state_id(last.edge_id, last.direction))
+            grown.append((float(f.hp[row, k]) + share, sid, last.exit_offset_m, k))
+    if not grown:
+        return
+    first = max((g for g in grown if g[3] == 0), key=lambda g: g[0], default=None)
+    rest = sorted((g for g in grown if g is not first), key=lambda g: -g[0])
+    kept = ([first] if first is not None else []) + rest
+    kept = kept[: fleet.k]
+    parents = np.array([g[3] for g in kept])
+    cols = {name: getattr(f, name)[row, parents].copy() for name in SLOT_FIELDS}
+    f.hs[row] = -1
+    f.hp[row] = _NEG_INF
+    m = len(kept)
+    f.hs[row, :m] = [g[1] for g in kept]
+    for name, values in cols.items():
+        getattr(f, name)[row, :m] = values
+    f.ho[row, :m] = [g[2] for g in kept]
+    lp = np.array([g[0] for g in kept])
+    f.hp[row, :m] = lp - np.logaddexp.reduce(lp)
+    f.hg[row, :m] += travelled_m
+
+
+def advance(
+    net: TrackMap,
+    edge: int,
+    offset: float,
+    direction: int,
+    distance_m: float,
+    report: VehicleReport | None,
+    *,
+    wrong: bool,
+) -> tuple[int, float, int]:
+    """Move a track position by a signed distance along its most probable path."""
+    if abs(distance_m) < 1e-6:
+        return edge, offset, direction
+    length = net.edge_length(edge)
+    moved = offset + direction * distance_m
+    if 0.0 <= moved <= length:  # the common case: still on the same edge
+        return edge, moved, direction
+    if distance_m > 0:
+        paths = net.paths_ahead(
+            edge,
+            offset,
+            direction,
+            distance_m,
+            respect_direction=not wrong,
+            max_paths=MAX_PATHS_SEARCH,
+        )
+        if not paths:
+            return edge, min(max(moved, 0.0), length), direction
+        last = preferred_path(paths, report.route if report is not None else None).steps[-1]
+        return last.edge_id, last.exit_offset_m, last.direction
+    # behind the start of the edge: the filter lags the matched lineage by a few metres;
+    # guessing a branch behind would be worse than stopping at the node
+    return edge, min(max(moved, 0.0), length), direction
+
+
+def preferred_path(paths: list[Path], route: tuple[int, ...] | None) -> Path:
+    """The path a vehicle most probably takes: along its route, else the straightest."""
+    if route:
+        on_route = set(route)
+        scored = [(sum(1 for e in p.edges if e in on_route), p) for p in paths]
+        top = max(s for s, _ in scored)
+        if top > 1:
+            return next(p for s, p in scored if s == top)
+    return min(paths, key=lambda p: sum(1 for n in p.nodes if n.choice not in (None, "straight")))

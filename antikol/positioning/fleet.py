@@ -1,0 +1,135 @@
+"""The positioning state of a whole fleet as arrays: one row per vehicle.
+
+Rows are reused when a vehicle leaves; :class:`FleetState` grows by doubling. Hypothesis
+slots hold, per vehicle, up to ``k`` places; slot 0 is the one the reported position follows.
+State ids pack (edge, running direction), see :mod:`antikol.positioning.reach`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from antikol.positioning.kalman import TrackFilterState
+from antikol.report import VehicleReport
+
+__all__ = ["SLOT_FIELDS", "VEHICLE_FIELDS", "FleetState", "json_float", "report_dict"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+#: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
+SLOT_FIELDS = ("ho", "hp", "hg", "hw", "bx", "by", "pxx", "pxy", "pyy")
+#: Per-vehicle float arrays of the fleet state.
+VEHICLE_FIELDS = ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
+
+
+@dataclass
+class FleetState:
+    """The positioning state of every vehicle, as arrays (one row per vehicle).
+
+    Hypothesis slots hold, per vehicle, up to ``k`` places; slot 0 is the one the reported
+    position follows. State ids pack (edge, running direction), see
+    :mod:`antikol.positioning.reach`; ``-1`` marks an empty slot.
+    """
+
+    k: int
+    # per hypothesis (vehicles x k): state id, offset on the edge (m), log-probability,
+    # progress along its history (m), time running wrong way (s), GPS bias east and
+    # north (m) and its covariance (m²)
+    hs: IntArray = field(init=False)
+    ho: FloatArray = field(init=False)
+    hp: FloatArray = field(init=False)
+    hg: FloatArray = field(init=False)
+    hw: FloatArray = field(init=False)
+    bx: FloatArray = field(init=False)
+    by: FloatArray = field(init=False)
+    pxx: FloatArray = field(init=False)
+    pxy: FloatArray = field(init=False)
+    pyy: FloatArray = field(init=False)
+    # per vehicle: last fix time (s), local position (m), reported speed (m/s), odometer
+    # (m), odometer and time at the last GPS position, lineage progress at the last fix (m),
+    # probability of the reported place, rejections and confident matches in a row
+    t: FloatArray = field(init=False)
+    x: FloatArray = field(init=False)
+    y: FloatArray = field(init=False)
+    v: FloatArray = field(init=False)
+    odo: FloatArray = field(init=False)
+    odo_fix: FloatArray = field(init=False)
+    t_fix: FloatArray = field(init=False)
+    z: FloatArray = field(init=False)
+    place: FloatArray = field(init=False)
+    rejected: IntArray = field(init=False)
+    confident_run: IntArray = field(init=False)
+    unmatched: npt.NDArray[np.bool_] = field(init=False)
+    kf: TrackFilterState = field(init=False)
+    last: list[VehicleReport | None] = field(init=False, default_factory=list)
+    lost: list[str | None] = field(init=False, default_factory=list)
+
+    def __post_init__(self) -> None:
+        k = self.k
+        self.hs = np.zeros((0, k), np.int64)
+        for name in SLOT_FIELDS:
+            setattr(self, name, np.zeros((0, k)))
+        for name in (*VEHICLE_FIELDS, "place"):
+            setattr(self, name, np.zeros(0))
+        self.rejected = np.zeros(0, np.int64)
+        self.confident_run = np.zeros(0, np.int64)
+        self.unmatched = np.zeros(0, bool)
+        self.kf = TrackFilterState.empty(0)
+
+    def grow(self, n: int) -> None:
+        """Extend every array to ``n`` rows (new rows cleared)."""
+        old = len(self.t)
+        if n <= old:
+            return
+        for name in (
+            "hs",
+            *SLOT_FIELDS,
+            *VEHICLE_FIELDS,
+            "place",
+            "rejected",
+            "confident_run",
+            "unmatched",
+        ):
+            arr = getattr(self, name)
+            extra = np.zeros((n - old, *arr.shape[1:]), arr.dtype)
+            setattr(self, name, np.concatenate([arr, extra]))
+        self.kf.grow(n)
+        self.last.extend([None] * (n - old))
+        self.lost.extend([None] * (n - old))
+        for row in range(old, n):
+            self.clear(row)
+
+    def clear(self, row: int) -> None:
+        """Empty one row (a new or forgotten vehicle)."""
+        self.hs[row] = -1
+        self.hp[row] = -math.inf
+        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix"):
+            getattr(self, name)[row] = np.nan
+        self.v[row] = self.z[row] = self.place[row] = 0.0
+        self.rejected[row] = self.confident_run[row] = 0
+        self.unmatched[row] = False
+        self.kf.t[row] = np.nan
+        self.last[row] = None
+        self.lost[row] = None
+
+
+def json_float(value: float) -> float | None:
+    """A float for JSON: NaN becomes None."""
+    v = float(value)
+    return None if math.isnan(v) else v
+
+
+def report_dict(r: VehicleReport) -> dict[str, Any]:
+    """A report as a JSON-ready dict (enough to resume positioning)."""
+    d = {name: getattr(r, name) for name in r.__dataclass_fields__}
+    if d.get("track_position") is not None:
+        d["track_position"] = None  # not needed to resume positioning
+    if d.get("route") is not None:
+        d["route"] = list(d["route"])
+    return d

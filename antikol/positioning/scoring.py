@@ -1,0 +1,278 @@
+"""One step of the positioning's hidden Markov model over a batch of fixes.
+
+For every fix the candidate places (:mod:`antikol.positioning.candidates`) in both running
+directions are scored against every hypothesis the vehicle had: the **emission** — the
+lateral offset explained by the hypothesis' own slowly varying GPS bias
+(:mod:`antikol.positioning.kalman`) plus white noise with a heavy-tailed floor, and the
+course over ground against the track heading — and the **transition** — the along-track
+distance between the states (:mod:`antikol.positioning.reach`) against the distance
+travelled, with the costs of entering wrong-way running and of reversing. A candidate no
+hypothesis can reach may still be taken at the small relocation prior (a track missing from
+the map). The result is read by :class:`~antikol.positioning.matcher.Positioner`, which
+keeps the best hypotheses; this module writes no state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from antikol.positioning.candidates import Candidates
+from antikol.positioning.config import PositioningConfig
+from antikol.positioning.fleet import FleetState
+from antikol.positioning.kalman import BiasState, bias_predict, bias_update
+from antikol.positioning.reach import ReachTable, state_id
+from antikol.report import VehicleReport
+
+__all__ = ["Scored", "score_fixes"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+_NEG_INF = -math.inf
+
+
+@dataclass(frozen=True, slots=True)
+class Scored:
+    """The candidate states of a batch of fixes, scored (parallel arrays).
+
+    Per fix: ``unmatched`` (no candidate), ``stuck`` (no hypothesis reaches a candidate:
+    the fix is rejected), ``fresh`` (the vehicle starts afresh), ``rejected`` (its
+    rejections in a row after this step) and ``along_sigma`` (the fix's error along the
+    track, m). Per candidate state: the fix it belongs to (``cv``), the state id (``cs``),
+    the offset (``co``, m), the log-probability (``log_p``), the progress along its
+    lineage (``progress``, m), the parent slot (``parent``, -1 for a new lineage), the time
+    running wrong way (``wrong_way_s``) and the GPS bias estimate (``bias``: east, north, m;
+    covariance, m²). ``stats`` counts what happened.
+    """
+
+    unmatched: BoolArray
+    stuck: BoolArray
+    fresh: BoolArray
+    rejected: IntArray
+    along_sigma: FloatArray
+    cv: IntArray
+    cs: IntArray
+    co: FloatArray
+    log_p: FloatArray
+    progress: FloatArray
+    parent: IntArray
+    wrong_way_s: FloatArray
+    bias: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+    stats: Counter[str]
+
+
+def score_fixes(
+    fleet: FleetState,
+    reach: ReachTable,
+    config: PositioningConfig,
+    find: Callable[[FloatArray, FloatArray, FloatArray], Candidates],
+    reports: list[VehicleReport],
+    rows: IntArray,
+    t: FloatArray,
+    speed: FloatArray,
+    odo: FloatArray,
+    xs: FloatArray,
+    ys: FloatArray,
+) -> Scored:
+    """Score the candidate states of one fix per vehicle (see the module).
+
+    Parameters
+    ----------
+    fleet : FleetState
+        The vehicles' hypotheses before the fixes (read only).
+    reach : ReachTable
+    config : PositioningConfig
+    find : callable
+        ``find(x, y, radius)``: the candidate places of fixes in the local frame (m).
+    reports : list of VehicleReport
+    rows : ndarray of int
+        Each report's row in ``fleet``.
+    t, speed, odo, xs, ys : ndarray
+        Time (s), speed (m/s), odometer (m, NaN: none) and local position (m) of each.
+
+    Returns
+    -------
+    Scored
+    """
+    stats: Counter[str] = Counter()
+    c = config
+    n = len(reports)
+    hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
+    scales = np.array([c.error_scales(r.fix_quality) for r in reports], dtype=float)
+    sigma = scales[:, 0] * hdop
+    bias_sigma = scales[:, 1] * hdop
+    radius = np.maximum(c.search_radius_m, 4.0 * sigma)
+    found = find(xs, ys, radius)
+    # one candidate state per (candidate place, running direction)
+    cv = np.repeat(found.point, 2)  # report index of each candidate state
+    edge = np.repeat(found.edge_id, 2)
+    direction = np.tile(np.array([1, -1]), len(found.point))
+    cs = state_id(edge, direction)
+    co = np.repeat(found.offset_m, 2)
+    lateral = np.repeat(found.lateral_m, 2)
+    heading = np.repeat(found.heading_deg, 2)
+    wrong = ~reach.allowed[cs]
+
+    prev_t = fleet.t[rows]
+    dt = np.where(np.isfinite(prev_t), t - prev_t, 0.0)
+    odo_prev = fleet.odo[rows]
+    has_odo = np.isfinite(odo) & np.isfinite(odo_prev)
+    travelled = np.where(
+        has_odo,
+        np.maximum(odo - np.where(has_odo, odo_prev, 0.0), 0.0),
+        0.5 * (speed + fleet.v[rows]) * dt,
+    )
+    fresh = (
+        (fleet.hs[rows, 0] < 0)
+        | fleet.unmatched[rows]
+        | ~np.isfinite(prev_t)
+        | (dt > c.reset_gap_s)
+    )
+    counts = np.bincount(cv, minlength=n)
+    unmatched = counts == 0
+
+    # emission parts that do not depend on the parent: course and the wrong-way cost
+    course = np.fromiter((r.course_deg for r in reports), float, n)
+    use_course = speed >= c.min_speed_for_course_mps
+    course_sigma = np.hypot(c.course_sigma_deg, c.course_noise_deg_mps / np.maximum(speed, 0.1))
+    track_dir = heading + np.where(direction == 1, 0.0, 180.0)
+    diff = (course[cv] - track_dir + 180.0) % 360.0 - 180.0
+    gauss = np.exp(-0.5 * (diff / course_sigma[cv]) ** 2) / (
+        course_sigma[cv] * math.sqrt(2.0 * math.pi)
+    )
+    course_ll = np.where(
+        use_course[cv],
+        np.log((1.0 - c.course_outlier_weight) * gauss + c.course_outlier_weight / 360.0),
+        0.0,
+    )
+    h = np.radians(heading)
+    nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
+    static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
+    weight = np.where(travelled < c.standstill_distance_m, c.standstill_evidence_weight, 1.0)
+    noise_var = (sigma * sigma)[cv]
+    floor = c.outlier_weight / (2.0 * radius[cv])
+
+    # pairs: every candidate state with every slot of its vehicle's previous hypotheses
+    k = fleet.k
+    prow = rows[cv]
+    ps = fleet.hs[prow]  # (m, k)
+    valid = (ps >= 0) & ~fresh[cv][:, None]
+    pss = np.where(valid, ps, 0)
+    po = fleet.ho[prow]
+    exp_m = travelled[cv][:, None]
+    dist = reach.signed_distance(
+        pss, po, np.repeat(cs[:, None], k, 1), np.repeat(co[:, None], k, 1), expected_m=exp_m
+    )
+    beta = np.where(
+        has_odo,
+        0.3 * c.transition_beta_m + 0.02 * travelled,
+        c.transition_beta_m + 0.1 * travelled,
+    )[cv][:, None]
+    trans = -np.abs(dist - exp_m) / beta
+    # a standing vehicle may change direction (bidirectional trams at termini)
+    reversal = ((pss >> 1) == (cs >> 1)[:, None]) & ((pss & 1) != (cs & 1)[:, None])
+    rev_ok = reversal & (exp_m < 1.0)
+    rev_dist = np.abs(co[:, None] - po)
+    trans = np.where(rev_ok, c.reversal_log_prior - rev_dist / beta, trans)
+    dist = np.where(rev_ok, rev_dist, dist)
+    enters_wrong = wrong[:, None] & reach.allowed[pss]
+    trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
+    trans = np.where(valid & np.isfinite(trans), trans, _NEG_INF)
+
+    parent = BiasState(
+        fleet.bx[prow],
+        fleet.by[prow],
+        fleet.pxx[prow],
+        fleet.pxy[prow],
+        fleet.pyy[prow],
+    )
+    prior = bias_predict(parent, dt[cv][:, None], bias_sigma[cv][:, None], c.bias_tau_s)
+    post, resid, var = bias_update(
+        prior, nx[:, None], ny[:, None], lateral[:, None], noise_var[:, None]
+    )
+    lat_ll = np.log(
+        (1.0 - c.outlier_weight)
+        * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
+        / math.sqrt(2.0 * math.pi)
+        + floor[:, None]
+    )
+    emit = (lat_ll + static_ll[:, None]) * weight[cv][:, None]
+    score = fleet.hp[prow] + trans + emit
+    best = np.argmax(score, axis=1)
+    ar = np.arange(len(cs))
+    top = score[ar, best]
+    with np.errstate(invalid="ignore"):
+        lse = top + np.log(np.sum(np.exp(score - top[:, None]), axis=1))
+    lse = np.where(np.isfinite(top), lse, _NEG_INF)
+
+    # fresh starts: the emission alone, with the stationary bias prior
+    start = BiasState.prior(len(cs), bias_sigma[cv])
+    post0, resid0, var0 = bias_update(start, nx, ny, lateral, noise_var)
+    lat0 = np.log(
+        (1.0 - c.outlier_weight)
+        * np.exp(-0.5 * resid0 * resid0 / var0 - 0.5 * np.log(var0))
+        / math.sqrt(2.0 * math.pi)
+        + floor
+    )
+    score0 = lat0 + static_ll + np.where(wrong, c.wrong_way_entry_log_prior, 0.0)
+
+    # vehicles whose previous hypotheses reach no candidate: a jump the map cannot explain
+    cont = ~fresh[cv]
+    reach_any = np.zeros(n, bool)
+    np.logical_or.at(reach_any, cv, np.isfinite(lse) & cont)
+    stuck = ~fresh & ~unmatched & ~reach_any
+    # (counted as rejections in a row; enough of them and the vehicle starts afresh)
+    rejected = fleet.rejected[rows] + stuck
+    restart = stuck & (rejected >= c.max_rejections_in_row)
+    for name, happened in (("unreachable_fix", stuck), ("reset_after_rejections", restart)):
+        if happened.any():
+            stats[name] += int(np.count_nonzero(happened))
+    rejected[restart] = 0
+    fresh |= restart
+    use0 = fresh[cv]
+    # the vehicle may be where its previous hypotheses cannot reach (a track missing
+    # from the map, a wrong connection): a small prior keeps the filter from holding on
+    # to an impossible history
+    relocate = score0 + c.relocation_log_prior
+    moved = ~use0 & (relocate > top)
+    lse = np.where(use0, lse, np.logaddexp(lse, relocate))
+    if moved.any():
+        stats["relocated"] += int(np.count_nonzero(moved))
+    use0 = use0 | moved
+    new_lp = np.where(fresh[cv], score0, lse)
+    new_prog = np.where(use0, 0.0, fleet.hg[prow][ar, best] + dist[ar, best])
+    new_parent = np.where(use0, -1, best)
+    new_ww = np.where(wrong, np.where(use0, 0.0, fleet.hw[prow][ar, best] + dt[cv]), 0.0)
+
+    def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
+        return np.where(use0, a0, a[ar, best])
+
+    bias_cols = (
+        pick(post0.bx, post.bx),
+        pick(post0.by, post.by),
+        pick(post0.pxx, post.pxx),
+        pick(post0.pxy, post.pxy),
+        pick(post0.pyy, post.pyy),
+    )
+    return Scored(
+        unmatched,
+        stuck & ~fresh,
+        fresh,
+        rejected,
+        np.hypot(sigma, bias_sigma),
+        cv,
+        cs,
+        co,
+        new_lp,
+        new_prog,
+        new_parent,
+        new_ww,
+        bias_cols,
+        stats,
+    )
