@@ -13,6 +13,14 @@ from dataclasses import dataclass
 from antikol.errors import InvalidReportError
 from antikol.kinds import BRAKE_STATES, BrakeState
 
+__all__ = [
+    "MAX_ROUTE_EDGES",
+    "MAX_SPEED_MPS",
+    "MAX_VEHICLE_ID_BYTES",
+    "ReportedTrackPosition",
+    "VehicleReport",
+]
+
 #: Upper bound on a plausible rail vehicle speed (360 km/h); anything faster is an error.
 MAX_SPEED_MPS = 100.0
 #: Longest vehicle identifier in UTF-8 bytes (it must fit the radio frame).
@@ -47,7 +55,7 @@ class ReportedTrackPosition:
         _require_finite("track_position.offset_m", self.offset_m)
         if self.offset_m < 0:
             raise InvalidReportError("track_position.offset_m", self.offset_m, "negative")
-        if self.direction not in (1, -1):
+        if type(self.direction) is not int or self.direction not in (1, -1):
             raise InvalidReportError("track_position.direction", self.direction, "must be +1 or -1")
 
 
@@ -58,7 +66,7 @@ class VehicleReport:
     Parameters
     ----------
     vehicle_id : str
-        Identifier, 1 to 32 UTF-8 bytes without control characters.
+        Identifier, 1 to 32 UTF-8 bytes of printable characters, not only spaces.
     t : float
         Time of the fix, seconds (any epoch; all reports of a run share it).
     lat, lon : float
@@ -134,7 +142,7 @@ class VehicleReport:
             raise InvalidReportError("course_deg", self.course_deg, "outside 0..360 degrees")
         if self.course_deg == 360.0:
             object.__setattr__(self, "course_deg", 0.0)
-        if self.braking not in BRAKE_STATES:
+        if not isinstance(self.braking, str) or self.braking not in BRAKE_STATES:
             raise InvalidReportError("braking", self.braking, f"must be one of {BRAKE_STATES}")
         if self.length_m is not None:
             _require_finite("length_m", self.length_m)
@@ -150,7 +158,7 @@ class VehicleReport:
                 )
         if self.route is not None:
             if not isinstance(self.route, tuple):
-                object.__setattr__(self, "route", tuple(self.route))
+                object.__setattr__(self, "route", _edge_sequence(self.route))
             if len(self.route) > MAX_ROUTE_EDGES:
                 raise InvalidReportError(
                     "route", len(self.route), f"more than {MAX_ROUTE_EDGES} edges"
@@ -196,8 +204,22 @@ class VehicleReport:
 def _require_finite(name: str, value: object) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InvalidReportError(name, value, "must be a real number")
-    if not math.isfinite(value):
+    try:
+        finite = math.isfinite(value)
+    except OverflowError:  # an int beyond the range of a double
+        raise InvalidReportError(name, value, "too large for a double") from None
+    if not finite:
         raise InvalidReportError(name, value, "NaN or infinite")
+
+
+def _edge_sequence(route: object) -> tuple[object, ...]:
+    """A planned route given as a list (or another iterable) as a tuple."""
+    if isinstance(route, (str, bytes, bytearray)):
+        raise InvalidReportError("route", route, "must be a sequence of edge ids")
+    try:
+        return tuple(route)  # type: ignore[arg-type]
+    except TypeError:
+        raise InvalidReportError("route", route, "must be a sequence of edge ids") from None
 
 
 def _check_vehicle_id(vehicle_id: object) -> None:
@@ -205,9 +227,19 @@ def _check_vehicle_id(vehicle_id: object) -> None:
         raise InvalidReportError("vehicle_id", vehicle_id, "must be a str")
     if not vehicle_id:
         raise InvalidReportError("vehicle_id", vehicle_id, "empty")
-    if len(vehicle_id.encode("utf-8")) > MAX_VEHICLE_ID_BYTES:
+    # a str of more characters than the limit has more UTF-8 bytes: no need to encode it
+    too_long = f"longer than {MAX_VEHICLE_ID_BYTES} UTF-8 bytes"
+    if len(vehicle_id) > MAX_VEHICLE_ID_BYTES:
+        raise InvalidReportError("vehicle_id", vehicle_id, too_long)
+    try:
+        encoded = vehicle_id.encode("utf-8")
+    except UnicodeEncodeError:
         raise InvalidReportError(
-            "vehicle_id", vehicle_id, f"longer than {MAX_VEHICLE_ID_BYTES} UTF-8 bytes"
-        )
+            "vehicle_id", vehicle_id, "not valid Unicode text (a lone surrogate)"
+        ) from None
+    if len(encoded) > MAX_VEHICLE_ID_BYTES:
+        raise InvalidReportError("vehicle_id", vehicle_id, too_long)
     if not vehicle_id.isprintable():
         raise InvalidReportError("vehicle_id", vehicle_id, "contains control characters")
+    if not vehicle_id.strip():
+        raise InvalidReportError("vehicle_id", vehicle_id, "blank (only spaces)")
