@@ -52,7 +52,7 @@ class ReportedTrackPosition:
             raise InvalidReportError("track_position.edge_id", self.edge_id, "must be an int")
         if self.edge_id < 0 or self.edge_id > 0xFFFFFFFF:
             raise InvalidReportError("track_position.edge_id", self.edge_id, "out of 0..2^32-1")
-        _require_finite("track_position.offset_m", self.offset_m)
+        _store_float(self, "offset_m", "track_position.offset_m")
         if self.offset_m < 0:
             raise InvalidReportError("track_position.offset_m", self.offset_m, "negative")
         if type(self.direction) is not int or self.direction not in (1, -1):
@@ -105,6 +105,11 @@ class VehicleReport:
     ------
     InvalidReportError
         A value is NaN, infinite or out of range; the message names the field.
+
+    Notes
+    -----
+    Real-valued fields are stored as ``float``: an ``int`` is converted (beyond 2**53 that
+    rounds it to the nearest double), so a report holds what its radio frame carries.
     """
 
     vehicle_id: str
@@ -125,11 +130,11 @@ class VehicleReport:
 
     def __post_init__(self) -> None:
         _check_vehicle_id(self.vehicle_id)
-        _require_finite("t", self.t)
-        _require_finite("lat", self.lat)
-        _require_finite("lon", self.lon)
-        _require_finite("speed_mps", self.speed_mps)
-        _require_finite("course_deg", self.course_deg)
+        _store_float(self, "t")
+        _store_float(self, "lat")
+        _store_float(self, "lon")
+        _store_float(self, "speed_mps")
+        _store_float(self, "course_deg")
         if abs(self.lat) > 90.0:
             raise InvalidReportError("lat", self.lat, "|lat| > 90 degrees")
         if abs(self.lon) > 180.0:
@@ -145,11 +150,11 @@ class VehicleReport:
         if not isinstance(self.braking, str) or self.braking not in BRAKE_STATES:
             raise InvalidReportError("braking", self.braking, f"must be one of {BRAKE_STATES}")
         if self.length_m is not None:
-            _require_finite("length_m", self.length_m)
+            _store_float(self, "length_m")
             if not 0.0 < self.length_m <= 1000.0:
                 raise InvalidReportError("length_m", self.length_m, "outside (0, 1000] m")
         if self.antenna_offset_m is not None:
-            _require_finite("antenna_offset_m", self.antenna_offset_m)
+            _store_float(self, "antenna_offset_m")
             if self.antenna_offset_m < 0.0:
                 raise InvalidReportError("antenna_offset_m", self.antenna_offset_m, "negative")
             if self.length_m is not None and self.antenna_offset_m > self.length_m:
@@ -181,7 +186,7 @@ class VehicleReport:
         ):
             raise InvalidReportError("seq", self.seq, "must be a non-negative int")
         if self.hdop is not None:
-            _require_finite("hdop", self.hdop)
+            _store_float(self, "hdop")
             if self.hdop < 0.0:
                 raise InvalidReportError("hdop", self.hdop, "negative")
         if self.fix_quality is not None and (
@@ -191,7 +196,7 @@ class VehicleReport:
         ):
             raise InvalidReportError("fix_quality", self.fix_quality, "must be an int 0..9")
         if self.odometer_m is not None:
-            _require_finite("odometer_m", self.odometer_m)
+            _store_float(self, "odometer_m")
             if self.odometer_m < 0.0:
                 raise InvalidReportError("odometer_m", self.odometer_m, "negative")
 
@@ -199,6 +204,14 @@ class VehicleReport:
     def course_rad(self) -> float:
         """Course over ground in radians, clockwise from north."""
         return math.radians(self.course_deg)
+
+
+def _store_float(obj: object, attr: str, name: str | None = None) -> None:
+    """Check that ``obj.attr`` is a finite real number and store it as a float."""
+    value = getattr(obj, attr)
+    _require_finite(name or attr, value)
+    if type(value) is not float:
+        object.__setattr__(obj, attr, float(value))
 
 
 def _require_finite(name: str, value: object) -> None:

@@ -228,13 +228,19 @@ def write(data: MapData, path: str | os.PathLike[str], *, stats: Mapping[str, An
     ------
     trackmap.errors.SourceError
         The file cannot be written (also an ``OSError``).
+    trackmap.errors.MapFileError
+        The map holds what a map file cannot (a NaN, text that is not valid Unicode).
     """
     p = Path(path)
     doc = to_geojson(data, stats=stats)
     tmp = p.with_name(p.name + ".tmp")
     try:
-        with tmp.open("w", encoding="utf-8") as fh:
-            json.dump(doc, fh, ensure_ascii=False, separators=(",", ":"), allow_nan=False)
+        text = json.dumps(doc, ensure_ascii=False, separators=(",", ":"), allow_nan=False)
+        raw = text.encode("utf-8")
+    except (ValueError, UnicodeEncodeError) as exc:  # NaN/infinity, lone surrogates
+        raise MapFileError(f"{p}: the map cannot be written as a map file: {exc}") from None
+    try:
+        tmp.write_bytes(raw)
         tmp.replace(p)
     except OSError as exc:
         raise SourceError(f"{p}: cannot write the map file: {exc.strerror or exc}") from exc

@@ -31,11 +31,13 @@ from trackmap.builder.rawdata import (
 )
 from trackmap.errors import SourceError, SourceFormatError
 
-__all__ = ["load_json", "read_geojson", "read_overpass"]
+__all__ = ["MAX_TAG_CHARS", "load_json", "read_geojson", "read_overpass"]
 
 logger = logging.getLogger(__name__)
 
 _ID_TEXT = re.compile(r"-?[0-9]{1,19}")
+#: The longest tag key or value OSM allows, characters.
+MAX_TAG_CHARS = 255
 
 
 class _Bad(ValueError):
@@ -270,17 +272,28 @@ def _tags(value: Any) -> dict[str, str]:
         return {}
     if not isinstance(value, dict):
         raise _Bad(f"'tags' must be an object of key/value strings, got {_kind(value)}")
-    return {str(k): _tag_value(v, f"tags.{k}") for k, v in value.items()}
+    return {_text(k, "a tag key"): _tag_value(v, f"tags.{k}") for k, v in value.items()}
 
 
 def _tag_value(value: Any, what: str) -> str:
     if isinstance(value, str):
-        return value
+        return _text(value, _clip(what, 60))
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, (int, float)):
         return str(value)
     raise _Bad(f"{_clip(what, 60)} must be a string, got {_kind(value)}")
+
+
+def _text(value: str, what: str) -> str:
+    """A tag key or value as OSM allows it: at most 255 characters of valid Unicode."""
+    if len(value) > MAX_TAG_CHARS:
+        raise _Bad(f"{what} is {len(value):,} characters long; OSM allows {MAX_TAG_CHARS}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _Bad(f"{what} is not valid Unicode text (a lone surrogate)") from None
+    return value
 
 
 def _lonlat(lon: Any, lat: Any, what: str = "") -> tuple[float, float]:

@@ -115,6 +115,9 @@ class SourceData:
     boundary_nodes : list of (node_id, way_id)
         Located nodes of kept pieces next to a missing node: the track goes on beyond the
         map there.
+    kept_ways : int
+        Way elements kept, whole or in pieces: with :attr:`dropped` they account for every
+        way element of a track kind the reader saw.
     """
 
     ways: list[RawWay]
@@ -126,11 +129,7 @@ class SourceData:
     bounds: tuple[float, float, float, float] | None = None
     clipped: Counter[str] = field(default_factory=Counter)
     boundary_nodes: list[tuple[int, int]] = field(default_factory=list)
-
-    @property
-    def kept_ways(self) -> int:
-        """Distinct ways kept (a cut way counts once however many pieces it gave)."""
-        return len({w.way_id for w in self.ways})
+    kept_ways: int = 0
 
 
 def way_rejection(tags: Mapping[str, str], kinds: frozenset[str]) -> str | None:
@@ -204,7 +203,8 @@ def add_way(
                 runs.append([])
     runs = [r for r in runs if r]
     if not missing:
-        _add_piece(data, way_id, runs[0] if runs else [], tags)
+        if _add_piece(data, way_id, runs[0] if runs else [], tags):
+            data.kept_ways += 1
         return
     kept = 0
     for k, run in enumerate(runs):
@@ -223,6 +223,7 @@ def add_way(
         if data.dropped["missing_nodes"] <= _NAMED:
             logger.info("%s: way %d lies outside the extract (no located piece)", data.path, way_id)
         return
+    data.kept_ways += 1
     data.clipped["ways"] += 1
     data.clipped["pieces"] += kept
     data.clipped["missing_refs"] += missing
