@@ -276,7 +276,7 @@ def _physical_lines(fh: BinaryIO, path: Path) -> Iterator[tuple[int, bytes | Non
         pending = parts.pop() + hold
         for part in parts:
             number += 1
-            yield number, None if too_long else part
+            yield number, None if too_long or len(part) > MAX_LINE_BYTES else part
             too_long = False
         if len(pending) > MAX_LINE_BYTES:
             too_long, pending = True, b""
