@@ -21,6 +21,7 @@ range, references to nothing, moved coordinates, missing members, bad bytes, cut
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import functools
 import json
@@ -346,11 +347,20 @@ def mutate_source(rng: random.Random) -> OsmBuilder:
     b = base_network()
     nodes, ways = b.nodes, b.ways
     for _ in range(rng.randrange(1, 4)):
+        # an earlier mutation may have left nothing this one can change
+        with contextlib.suppress(TypeError, ValueError, IndexError, KeyError):
+            _mutate_once(rng, nodes, ways)
+    return b
+
+
+def _mutate_once(rng: random.Random, nodes: dict[Any, Any], ways: list[Any]) -> None:
+    if True:
         op = rng.randrange(12)
         if op == 0:  # a coordinate: wrong text or value
             nid = rng.choice(list(nodes))
             lon, lat, tags = nodes[nid]
-            value: Any = rng.choice([*_RAW_WEIRD, weird(rng), 179.9, -89.99, lon + 0.5])
+            shifted = lon + 0.5 if type(lon) in (int, float) else 0.5
+            value: Any = rng.choice([*_RAW_WEIRD, weird(rng), 179.9, -89.99, shifted])
             nodes[nid] = (value, lat, tags) if rng.random() < 0.5 else (lon, value, tags)
         elif op == 1:  # a node without location (outside the extract)
             del nodes[rng.choice(list(nodes))]
@@ -383,15 +393,19 @@ def mutate_source(rng: random.Random) -> OsmBuilder:
             ways.append(rng.choice(ways))
         elif op == 7:  # all nodes of a way at one place
             _, refs, _ = rng.choice(ways)
-            if isinstance(refs, list) and refs and refs[0] in nodes:
-                for n in refs:
-                    if n in nodes:
-                        nodes[n] = (nodes[refs[0]][0], nodes[refs[0]][1], nodes[n][2])
+            located = (
+                [n for n in refs if _hashable(n) and n in nodes] if isinstance(refs, list) else []
+            )
+            for n in located:
+                nodes[n] = (nodes[located[0]][0], nodes[located[0]][1], nodes[n][2])
         elif op == 8:  # pole to pole
             _, refs, _ = rng.choice(ways)
-            if isinstance(refs, list) and len(refs) >= 2 and refs[0] in nodes and refs[-1] in nodes:
-                nodes[refs[0]] = (19.94, -89.9, nodes[refs[0]][2])
-                nodes[refs[-1]] = (19.94, 89.9, nodes[refs[-1]][2])
+            located = (
+                [n for n in refs if _hashable(n) and n in nodes] if isinstance(refs, list) else []
+            )
+            if len(located) >= 2:
+                nodes[located[0]] = (19.94, -89.9, nodes[located[0]][2])
+                nodes[located[-1]] = (19.94, 89.9, nodes[located[-1]][2])
         elif op == 9:  # node tags
             nid = rng.choice(list(nodes))
             lon, lat, _ = nodes[nid]
@@ -410,13 +424,21 @@ def mutate_source(rng: random.Random) -> OsmBuilder:
         elif op == 10:  # a way entirely without its nodes
             _, refs, _ = rng.choice(ways)
             for n in refs if isinstance(refs, list) else []:
-                nodes.pop(n, None)
+                if _hashable(n):
+                    nodes.pop(n, None)
         else:  # a huge tag value
             i = rng.randrange(len(ways))
             wid, refs, tags = ways[i]
             if isinstance(tags, dict):
                 ways[i] = (wid, refs, {**tags, "name": "x" * 100_000})
-    return b
+
+
+def _hashable(value: Any) -> bool:
+    try:
+        hash(value)
+    except TypeError:
+        return False
+    return True
 
 
 def write_source(b: OsmBuilder, fmt: str, path: Path) -> Path:
@@ -469,7 +491,7 @@ def write_source(b: OsmBuilder, fmt: str, path: Path) -> Path:
     for wid, refs, tags in b.ways:
         coords = []
         for n in refs if isinstance(refs, list) else []:
-            if isinstance(n, (int, str)) and n in b.nodes:
+            if _hashable(n) and n in b.nodes:
                 coords.append([_json_value(b.nodes[n][0]), _json_value(b.nodes[n][1])])
         props = dict(tags) if isinstance(tags, dict) else {"tags": tags}
         feats.append(

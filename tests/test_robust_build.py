@@ -124,7 +124,7 @@ def test_a_coordinate_far_from_the_network_names_the_node(tmp_path):
 def test_a_pole_to_pole_way_does_not_build(tmp_path):
     b = base_network()
     b.line([(0, 0), (10, 10)])
-    wid, refs, _ = b.ways[-1]
+    _, refs, _ = b.ways[-1]
     b.nodes[refs[0]] = (19.94, -89.9, {})
     b.nodes[refs[1]] = (19.94, 89.9, {})
     with pytest.raises(trackmap.SourceFormatError, match="a map spans at most 500 km"):
