@@ -36,7 +36,6 @@ from typing import Any
 import trackmap
 from antikol.errors import AntikolError, InvalidReportError, ProtocolError
 from antikol.ingest.protocol import decode_frame, encode_report
-from antikol.ingest.replaylog import RowProblem, iter_replay_csv
 from antikol.report import ReportedTrackPosition, VehicleReport
 from tests._osm import OsmBuilder
 from trackmap import mapfile
@@ -272,7 +271,7 @@ def _normal(value: Any) -> Any:
     if isinstance(value, bool) or value is None or isinstance(value, str):
         return value
     if isinstance(value, (int, float)):
-        return float(value)
+        return float(value) + 0.0  # -0.0 is 0
     if isinstance(value, list):
         return [_normal(v) for v in value]
     if isinstance(value, dict):
@@ -644,6 +643,8 @@ def mutate_csv(rows: list[str], rng: random.Random) -> tuple[bytes, set[int]]:
 def try_csv(data: bytes, changed: set[int], n_rows: int, path: Path) -> Outcome:
     """Read a replay CSV; every row is a report or a problem with its line, and every row
     that was not changed is a report."""
+    from antikol.ingest.replaylog import RowProblem, iter_replay_csv
+
     path.write_bytes(data)
     try:
         items = list(iter_replay_csv(path))

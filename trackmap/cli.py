@@ -212,6 +212,11 @@ def _info(args: argparse.Namespace) -> int:
         print(f"  {key:<26} {shown}")
     print(f"  {'driving_side':<26} {net.metadata.driving_side}")
     print(f"  {'source':<26} {net.metadata.source.get('file', '?')}")
+    clipped = net.metadata.source.get("clipped")
+    if clipped:
+        boundary = len(net.metadata.source.get("boundary_nodes", []))
+        cut = f"{clipped.get('ways', 0)} ways cut, {boundary} boundary nodes"
+        print(f"  {'cut by the extract':<26} {cut}")
     print(f"  {'attribution':<26} {net.metadata.attribution}")
     return 0
 

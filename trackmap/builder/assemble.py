@@ -7,6 +7,7 @@ import logging
 import math
 import os
 from collections import defaultdict
+from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -240,19 +241,15 @@ def _check_parameters(
     """Raise :class:`ParameterError` for a build parameter outside its domain."""
     if driving_side not in DRIVING_SIDES:
         raise ParameterError(f"driving_side must be 'right' or 'left', got {driving_side!r:.40}")
-    # (value, low, high, low included, what the message says)
-    ranges = {
-        "max_deflection_deg": (max_deflection_deg, 0.0, 90.0, False, "in (0, 90) degrees"),
-        "tangent_probe_m": (tangent_probe_m, 0.0, 1000.0, False, "in (0, 1000] m"),
-        "fouling_clearance_m": (fouling_clearance_m, 0.0, 1000.0, True, "in [0, 1000] m"),
-        "stop_snap_m": (stop_snap_m, 0.0, 100_000.0, True, "in [0, 100 km]"),
+    # (value, its domain, what the message says)
+    ranges: dict[str, tuple[object, Callable[[float], bool], str]] = {
+        "max_deflection_deg": (max_deflection_deg, lambda v: 0 < v < 90, "in (0, 90) degrees"),
+        "tangent_probe_m": (tangent_probe_m, lambda v: 0 < v <= 1000, "in (0, 1000] m"),
+        "fouling_clearance_m": (fouling_clearance_m, lambda v: 0 <= v <= 1000, "in [0, 1000] m"),
+        "stop_snap_m": (stop_snap_m, lambda v: 0 <= v <= 100_000, "in [0, 100 km]"),
     }
-    for name, (value, lo, hi, lo_ok, text) in ranges.items():
-        v = float(value) if _number(value) else math.nan  # type: ignore[arg-type]
-        inside = (lo <= v if lo_ok else lo < v) and v <= hi
-        if name == "max_deflection_deg":
-            inside = inside and v < hi
-        if not inside:
+    for name, (value, inside, text) in ranges.items():
+        if not (_number(value) and inside(float(value))):  # type: ignore[arg-type]
             raise ParameterError(f"{name} must be a number {text}, got {value!r:.40}")
     pair = parallel_spacing_m
     if not (
