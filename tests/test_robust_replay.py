@@ -197,3 +197,34 @@ def test_replay_of_a_streamed_log_equals_the_in_memory_replay(tmp_path):
         b.rows_read,
         dict(b.by_kind),
     )
+
+
+def test_a_latin1_byte_in_an_hfp_log_costs_one_record(tmp_path):
+    import json
+
+    from antikol.ingest.hfp import read_hfp
+
+    lines = [
+        json.dumps(
+            {
+                "VP": {
+                    "oper": 40,
+                    "veh": 412,
+                    "tst": f"2023-12-14T08:00:{k:02d}Z",
+                    "lat": 50.06 + 1e-5 * k,
+                    "long": 19.94,
+                    "spd": 8.0,
+                    "hdg": 90,
+                    "loc": "GPS",
+                }
+            }
+        ).encode()
+        for k in range(20)
+    ]
+    lines[7] = lines[7].replace(b'"veh": 412', b'"veh": "41\xe9"')
+    lines[9] = lines[9].replace(b'"loc": "GPS"', b'"loc": "GP\xe9"')  # a field not needed
+    path = tmp_path / "feed.jsonl"
+    path.write_bytes(b"\n".join(lines))
+    log = read_hfp(path)
+    assert len(log.reports) == 19 and [p.line for p in log.problems] == [8]
+    assert "vehicle_id" in log.problems[0].reason
