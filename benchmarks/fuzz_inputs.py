@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the harness lives with the tests
 
 from tests import _fuzz as F  # noqa: E402
+from tests import _fuzz_sources as S  # noqa: E402
 
 _SOURCE_NAMES = {"osm": "s.osm", "overpass": "s.json", "geojson": "s.geojson"}
 
@@ -47,7 +48,7 @@ def _entry_points(tmp: Path) -> dict[str, Callable[[random.Random], F.Outcome | 
         return F.try_map_file(F.mutate_map(text, rng), tmp / "m.trackmap.geojson")
 
     def source(fmt: str) -> Callable[[random.Random], F.Outcome]:
-        return lambda rng: F.try_source(F.mutate_source(rng), fmt, tmp / _SOURCE_NAMES[fmt])
+        return lambda rng: S.try_source(S.mutate_source(rng), fmt, tmp / _SOURCE_NAMES[fmt])
 
     def csv_log(rng: random.Random) -> F.Outcome:
         data, changed = F.mutate_csv(rows, rng)

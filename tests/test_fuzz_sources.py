@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests._fuzz import mutate_source, try_source
+from tests._fuzz_sources import mutate_source, try_source
 
 _TMP = Path(tempfile.mkdtemp(prefix="fuzz-src-"))
 _NAMES = {"osm": "s.osm", "overpass": "s.json", "geojson": "s.geojson"}
