@@ -23,7 +23,11 @@ canonical geometry: local coordinates are recomputed from them with the stored C
 makes ``load(save(net)) == net`` exact.
 
 This module translates between the file and the map's records (:class:`~trackmap.model.MapData`);
-:class:`trackmap.TrackMap` is built from those by :func:`trackmap.load`.
+:class:`trackmap.TrackMap` is built from those by :func:`trackmap.load`. Reading checks
+everything: the JSON itself (:func:`parse_json`), the format's schema
+(:mod:`trackmap.mapschema`) and what a schema cannot state (:func:`from_geojson`), so a
+broken file is a :class:`~trackmap.errors.MapFileError` naming the file, the feature and
+what is wrong, and a file that loads is a map exactly as the file says.
 """
 
 from __future__ import annotations
