@@ -7,6 +7,18 @@ either.
 
 from __future__ import annotations
 
+__all__ = [
+    "AntikolError",
+    "InputFileError",
+    "InvalidArgumentError",
+    "InvalidReportError",
+    "ProfileError",
+    "ProtocolError",
+    "ReplayError",
+    "UnknownVehicleError",
+    "UsageError",
+]
+
 
 class AntikolError(Exception):
     """Base class of every error raised by antikol."""
@@ -27,7 +39,7 @@ class InvalidReportError(AntikolError, ValueError):
         self.field = field
         self.value = value
         self.reason = reason
-        super().__init__(f"invalid {field}={value!r}: {reason}")
+        super().__init__(f"invalid {field}={_short_repr(value)}: {reason}")
 
 
 class ProtocolError(AntikolError, ValueError):
@@ -44,6 +56,10 @@ class ReplayError(AntikolError, ValueError):
 
 class InputFileError(AntikolError, OSError):
     """An input file or directory is missing or unreadable."""
+
+
+class UsageError(AntikolError, ValueError):
+    """A command was asked for something it cannot do (the message says what to change)."""
 
 
 class UnknownVehicleError(AntikolError, KeyError):

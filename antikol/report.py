@@ -13,6 +13,14 @@ from dataclasses import dataclass
 from antikol.errors import InvalidReportError
 from antikol.kinds import BRAKE_STATES, BrakeState
 
+__all__ = [
+    "MAX_ROUTE_EDGES",
+    "MAX_SPEED_MPS",
+    "MAX_VEHICLE_ID_BYTES",
+    "ReportedTrackPosition",
+    "VehicleReport",
+]
+
 #: Upper bound on a plausible rail vehicle speed (360 km/h); anything faster is an error.
 MAX_SPEED_MPS = 100.0
 #: Longest vehicle identifier in UTF-8 bytes (it must fit the radio frame).
@@ -44,10 +52,10 @@ class ReportedTrackPosition:
             raise InvalidReportError("track_position.edge_id", self.edge_id, "must be an int")
         if self.edge_id < 0 or self.edge_id > 0xFFFFFFFF:
             raise InvalidReportError("track_position.edge_id", self.edge_id, "out of 0..2^32-1")
-        _require_finite("track_position.offset_m", self.offset_m)
+        _store_float(self, "offset_m", "track_position.offset_m")
         if self.offset_m < 0:
             raise InvalidReportError("track_position.offset_m", self.offset_m, "negative")
-        if self.direction not in (1, -1):
+        if type(self.direction) is not int or self.direction not in (1, -1):
             raise InvalidReportError("track_position.direction", self.direction, "must be +1 or -1")
 
 
@@ -58,7 +66,7 @@ class VehicleReport:
     Parameters
     ----------
     vehicle_id : str
-        Identifier, 1 to 32 UTF-8 bytes without control characters.
+        Identifier, 1 to 32 UTF-8 bytes of printable characters, not only spaces.
     t : float
         Time of the fix, seconds (any epoch; all reports of a run share it).
     lat, lon : float
@@ -97,6 +105,11 @@ class VehicleReport:
     ------
     InvalidReportError
         A value is NaN, infinite or out of range; the message names the field.
+
+    Notes
+    -----
+    Real-valued fields are stored as ``float``: an ``int`` is converted (beyond 2**53 that
+    rounds it to the nearest double), so a report holds what its radio frame carries.
     """
 
     vehicle_id: str
@@ -117,11 +130,11 @@ class VehicleReport:
 
     def __post_init__(self) -> None:
         _check_vehicle_id(self.vehicle_id)
-        _require_finite("t", self.t)
-        _require_finite("lat", self.lat)
-        _require_finite("lon", self.lon)
-        _require_finite("speed_mps", self.speed_mps)
-        _require_finite("course_deg", self.course_deg)
+        _store_float(self, "t")
+        _store_float(self, "lat")
+        _store_float(self, "lon")
+        _store_float(self, "speed_mps")
+        _store_float(self, "course_deg")
         if abs(self.lat) > 90.0:
             raise InvalidReportError("lat", self.lat, "|lat| > 90 degrees")
         if abs(self.lon) > 180.0:
@@ -134,14 +147,14 @@ class VehicleReport:
             raise InvalidReportError("course_deg", self.course_deg, "outside 0..360 degrees")
         if self.course_deg == 360.0:
             object.__setattr__(self, "course_deg", 0.0)
-        if self.braking not in BRAKE_STATES:
+        if not isinstance(self.braking, str) or self.braking not in BRAKE_STATES:
             raise InvalidReportError("braking", self.braking, f"must be one of {BRAKE_STATES}")
         if self.length_m is not None:
-            _require_finite("length_m", self.length_m)
+            _store_float(self, "length_m")
             if not 0.0 < self.length_m <= 1000.0:
                 raise InvalidReportError("length_m", self.length_m, "outside (0, 1000] m")
         if self.antenna_offset_m is not None:
-            _require_finite("antenna_offset_m", self.antenna_offset_m)
+            _store_float(self, "antenna_offset_m")
             if self.antenna_offset_m < 0.0:
                 raise InvalidReportError("antenna_offset_m", self.antenna_offset_m, "negative")
             if self.length_m is not None and self.antenna_offset_m > self.length_m:
@@ -150,7 +163,7 @@ class VehicleReport:
                 )
         if self.route is not None:
             if not isinstance(self.route, tuple):
-                object.__setattr__(self, "route", tuple(self.route))
+                object.__setattr__(self, "route", _edge_sequence(self.route))
             if len(self.route) > MAX_ROUTE_EDGES:
                 raise InvalidReportError(
                     "route", len(self.route), f"more than {MAX_ROUTE_EDGES} edges"
@@ -173,7 +186,7 @@ class VehicleReport:
         ):
             raise InvalidReportError("seq", self.seq, "must be a non-negative int")
         if self.hdop is not None:
-            _require_finite("hdop", self.hdop)
+            _store_float(self, "hdop")
             if self.hdop < 0.0:
                 raise InvalidReportError("hdop", self.hdop, "negative")
         if self.fix_quality is not None and (
@@ -183,7 +196,7 @@ class VehicleReport:
         ):
             raise InvalidReportError("fix_quality", self.fix_quality, "must be an int 0..9")
         if self.odometer_m is not None:
-            _require_finite("odometer_m", self.odometer_m)
+            _store_float(self, "odometer_m")
             if self.odometer_m < 0.0:
                 raise InvalidReportError("odometer_m", self.odometer_m, "negative")
 
@@ -193,11 +206,33 @@ class VehicleReport:
         return math.radians(self.course_deg)
 
 
+def _store_float(obj: object, attr: str, name: str | None = None) -> None:
+    """Check that ``obj.attr`` is a finite real number and store it as a float."""
+    value = getattr(obj, attr)
+    _require_finite(name or attr, value)
+    if type(value) is not float:
+        object.__setattr__(obj, attr, float(value))
+
+
 def _require_finite(name: str, value: object) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InvalidReportError(name, value, "must be a real number")
-    if not math.isfinite(value):
+    try:
+        finite = math.isfinite(value)
+    except OverflowError:  # an int beyond the range of a double
+        raise InvalidReportError(name, value, "too large for a double") from None
+    if not finite:
         raise InvalidReportError(name, value, "NaN or infinite")
+
+
+def _edge_sequence(route: object) -> tuple[object, ...]:
+    """A planned route given as a list (or another iterable) as a tuple."""
+    if isinstance(route, (str, bytes, bytearray)):
+        raise InvalidReportError("route", route, "must be a sequence of edge ids")
+    try:
+        return tuple(route)  # type: ignore[arg-type]
+    except TypeError:
+        raise InvalidReportError("route", route, "must be a sequence of edge ids") from None
 
 
 def _check_vehicle_id(vehicle_id: object) -> None:
@@ -205,9 +240,19 @@ def _check_vehicle_id(vehicle_id: object) -> None:
         raise InvalidReportError("vehicle_id", vehicle_id, "must be a str")
     if not vehicle_id:
         raise InvalidReportError("vehicle_id", vehicle_id, "empty")
-    if len(vehicle_id.encode("utf-8")) > MAX_VEHICLE_ID_BYTES:
+    # a str of more characters than the limit has more UTF-8 bytes: no need to encode it
+    too_long = f"longer than {MAX_VEHICLE_ID_BYTES} UTF-8 bytes"
+    if len(vehicle_id) > MAX_VEHICLE_ID_BYTES:
+        raise InvalidReportError("vehicle_id", vehicle_id, too_long)
+    try:
+        encoded = vehicle_id.encode("utf-8")
+    except UnicodeEncodeError:
         raise InvalidReportError(
-            "vehicle_id", vehicle_id, f"longer than {MAX_VEHICLE_ID_BYTES} UTF-8 bytes"
-        )
+            "vehicle_id", vehicle_id, "not valid Unicode text (a lone surrogate)"
+        ) from None
+    if len(encoded) > MAX_VEHICLE_ID_BYTES:
+        raise InvalidReportError("vehicle_id", vehicle_id, too_long)
     if not vehicle_id.isprintable():
         raise InvalidReportError("vehicle_id", vehicle_id, "contains control characters")
+    if not vehicle_id.strip():
+        raise InvalidReportError("vehicle_id", vehicle_id, "blank (only spaces)")

@@ -7,7 +7,11 @@ Errors (``trackmap check`` exits with status 1 when any is found):
 * ``contradictory_direction`` — two one-way edges that meet head to head (or tail to tail)
   where a vehicle should pass between them;
 * ``dangling_end`` — a track end that stops within ``snap_m`` of another track without
-  joining it (a missing connection rather than a buffer stop).
+  joining it (a missing connection rather than a buffer stop);
+* ``long_edge`` — an edge longer than is plausible between two junctions (5 km for trams,
+  10 km for light rail and subways, 50 km for railways; ``max_edge_m`` overrides): usually
+  a node with wrong coordinates;
+* ``self_overlapping_edge`` — an edge that runs back over itself.
 
 Warnings:
 
@@ -16,11 +20,21 @@ Warnings:
   still conflict points; OSM should usually have a crossing node there);
 * ``sharp_link`` — a plain link whose kink exceeds the switch deflection threshold;
 * ``duplicate_track`` — OSM ways over exactly the same nodes (kept once);
-* ``overlapping_tracks`` — two edges that run on top of each other without shared nodes.
+* ``overlapping_tracks`` — two edges that run on top of each other without shared nodes;
+* ``self_crossing_edge`` — an edge whose line crosses itself without a node there (not a
+  conflict point: OSM should have a crossing node, or a bridge);
+* ``outside_bounds`` — an edge with vertices more than ``bounds_margin_m`` outside the
+  extent the source declared (its ``<bounds>`` or ``bbox``).
+
+Notes (facts about the map, not problems):
+
+* ``map_boundary`` — a node where the source's extract cut a way: the track goes on
+  beyond the map there (see :func:`trackmap.build`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -29,9 +43,23 @@ import shapely
 
 from trackmap.geometry import cumulative_length, deflection_deg, end_tangent
 from trackmap.kinds import ConflictKind, NodeClass
+from trackmap.model import Edge
 from trackmap.network import TrackMap
 
-__all__ = ["CheckReport", "Finding", "check"]
+__all__ = ["MAX_EDGE_M", "CheckReport", "Finding", "check"]
+
+#: Longest plausible edge (track between two junctions) per railway kind, metres.
+MAX_EDGE_M: dict[str, float] = {
+    "tram": 5_000.0,
+    "light_rail": 10_000.0,
+    "subway": 10_000.0,
+    "rail": 50_000.0,
+    "narrow_gauge": 50_000.0,
+}
+_MAX_EDGE_OTHER_M = 10_000.0
+# An edge whose line covers less than its length by more than this overlaps itself, m.
+_OVERLAP_M = 0.5
+_GRID_M = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,10 +86,11 @@ class Finding:
 
 @dataclass
 class CheckReport:
-    """Errors and warnings of a map."""
+    """Errors and warnings of a map, and notes (facts such as map boundaries)."""
 
     errors: list[Finding] = field(default_factory=list)
     warnings: list[Finding] = field(default_factory=list)
+    notes: list[Finding] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -71,7 +100,7 @@ class CheckReport:
     def counts(self) -> dict[str, int]:
         """Number of findings per code."""
         out: dict[str, int] = {}
-        for f in [*self.errors, *self.warnings]:
+        for f in [*self.errors, *self.warnings, *self.notes]:
             out[f.code] = out.get(f.code, 0) + 1
         return out
 
@@ -82,6 +111,7 @@ class CheckReport:
             "counts": self.counts(),
             "errors": [asdict(f) for f in self.errors],
             "warnings": [asdict(f) for f in self.warnings],
+            "notes": [asdict(f) for f in self.notes],
         }
 
 
@@ -91,6 +121,8 @@ def check(
     min_edge_m: float = 1.0,
     snap_m: float = 1.5,
     max_deflection_deg: float | None = None,
+    max_edge_m: float | None = None,
+    bounds_margin_m: float = 1000.0,
 ) -> CheckReport:
     """Check a map for data problems.
 
@@ -103,6 +135,12 @@ def check(
         A track end this close to another track without joining it is an error, metres.
     max_deflection_deg : float, optional
         Kink above which a link is reported; defaults to the map's build parameter.
+    max_edge_m : float, optional
+        Edges longer than this are errors, metres; by default :data:`MAX_EDGE_M` of the
+        edge's railway kind.
+    bounds_margin_m : float
+        Vertices farther than this outside the source's declared extent are reported,
+        metres (extracts that keep whole ways reach a little beyond their box).
 
     Returns
     -------
@@ -179,7 +217,9 @@ def check(
                         node.node_id,
                     )
                 )
-    _dangling(net, snap_m, report)
+    boundary = _boundaries(net, report)
+    _dangling(net, snap_m, report, boundary)
+    _geometry(net, report, at, max_edge_m, bounds_margin_m)
     comps = net.components()
     if len(comps) > 1:
         sizes = [
@@ -219,11 +259,119 @@ def check(
     return report
 
 
-def _dangling(net: TrackMap, snap_m: float, report: CheckReport) -> None:
+def _boundaries(net: TrackMap, report: CheckReport) -> set[int]:
+    """Note the nodes where the source's extract cut a way; return their ids."""
+    ways: dict[int, list[int]] = {}
+    for nid, way in net.metadata.source.get("boundary_nodes", []):
+        ways.setdefault(int(nid), []).append(int(way))
+    for nid, way_ids in sorted(ways.items()):
+        node = net.nodes.get(nid)
+        if node is None:
+            continue
+        report.notes.append(
+            Finding(
+                "map_boundary",
+                f"node {nid}: the track goes on beyond the map (way(s) {way_ids} cut by the "
+                "source's extract)",
+                node.lon,
+                node.lat,
+                tuple(e for e, _ in node.ends),
+                nid,
+            )
+        )
+    return set(ways)
+
+
+def _geometry(
+    net: TrackMap,
+    report: CheckReport,
+    at: Callable[[float, float], tuple[float, float]],
+    max_edge_m: float | None,
+    margin_m: float,
+) -> None:
+    """Implausible geometry: long edges, edges over themselves, vertices out of bounds."""
+    bounds = net.metadata.source.get("bounds")
+    for e in net.edges:
+        limit = max_edge_m if max_edge_m is not None else MAX_EDGE_M.get(e.kind, _MAX_EDGE_OTHER_M)
+        mid = at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+        if e.length_m > limit:
+            report.errors.append(
+                Finding(
+                    "long_edge",
+                    f"edge {e.edge_id} (ways {list(e.way_ids)[:5]}) is {e.length_m / 1000:,.1f} "
+                    f"km long, more than the {limit / 1000:g} km plausible for {e.kind} track "
+                    "between junctions (a node with wrong coordinates?)",
+                    *mid,
+                    (e.edge_id,),
+                )
+            )
+        overlap = _self_overlap_m(e.geometry)
+        if overlap > _OVERLAP_M or not e.geometry.is_simple:
+            if overlap > _OVERLAP_M:
+                report.errors.append(
+                    Finding(
+                        "self_overlapping_edge",
+                        f"edge {e.edge_id} (ways {list(e.way_ids)[:5]}) runs back over itself "
+                        f"for {overlap:,.2f} m",
+                        *mid,
+                        (e.edge_id,),
+                    )
+                )
+            else:
+                report.warnings.append(
+                    Finding(
+                        "self_crossing_edge",
+                        f"edge {e.edge_id} (ways {list(e.way_ids)[:5]}) crosses itself without "
+                        "a node there (not a conflict point)",
+                        *mid,
+                        (e.edge_id,),
+                    )
+                )
+        if bounds is not None:
+            _outside(e, bounds, margin_m, report)
+
+
+def _self_overlap_m(line: shapely.LineString) -> float:
+    """How much of a line runs over another part of itself, metres (GEOS calls a line that
+    doubles back on itself simple: its segments are merged to find out)."""
+    xy = np.asarray(line.coords)
+    if len(xy) < 3:
+        return 0.0
+    segments = shapely.multilinestrings(np.stack([xy[:-1], xy[1:]], axis=1))
+    # on a 5 cm grid: a track drawn back over itself is never exactly collinear
+    merged = shapely.unary_union(shapely.set_precision(segments, _GRID_M))
+    return max(0.0, float(shapely.set_precision(line, _GRID_M).length - merged.length))
+
+
+def _outside(e: Edge, bounds: list[float], margin_m: float, report: CheckReport) -> None:
+    west, south, east, north = (float(v) for v in bounds)
+    lon, lat = np.asarray(e.lon), np.asarray(e.lat)
+    # distance outside the box, metres (1 degree of latitude is 111.2 km)
+    dlat = np.maximum(np.maximum(south - lat, lat - north), 0.0) * 111_195.0
+    dlon = np.maximum(np.maximum(west - lon, lon - east), 0.0)
+    dlon = np.minimum(dlon, 360.0 - dlon) * 111_195.0 * np.cos(np.radians(lat))
+    dist = np.hypot(dlat, dlon)
+    far = np.flatnonzero(dist > margin_m)
+    if len(far):
+        k = int(far[np.argmax(dist[far])])
+        report.warnings.append(
+            Finding(
+                "outside_bounds",
+                f"edge {e.edge_id}: {len(far)} vertex(es) lie outside the source's bounds "
+                f"{[round(float(b), 6) for b in bounds]}, up to {float(dist[k]) / 1000:,.1f} "
+                f"km (node {e.node_ids[k]})",
+                float(lon[k]),
+                float(lat[k]),
+                (e.edge_id,),
+            )
+        )
+
+
+def _dangling(net: TrackMap, snap_m: float, report: CheckReport, boundary: set[int]) -> None:
     geoms = np.array([e.geometry for e in net.edges], dtype=object)
     tree = shapely.STRtree(geoms)
     for node in net.nodes.values():
-        if node.cls != NodeClass.BUFFER_STOP:
+        if node.cls != NodeClass.BUFFER_STOP or node.node_id in boundary:
             continue
         own = node.ends[0][0]
         pt = shapely.Point(node.x, node.y)

@@ -1,4 +1,17 @@
-"""Command line interface: ``trackmap build | info | check | plot``."""
+"""Command line interface: ``trackmap build | info | check | plot``.
+
+Exit status
+-----------
+===  ======================================================================================
+ 0   success (``check``: no error found)
+ 1   ``check`` found data errors in the map (the findings are printed)
+ 2   usage or input error: a bad option, a missing, unreadable or broken file; one line
+     ``trackmap CMD: error: ...`` says what and where
+ 3   internal error: a bug in trackmap, not a problem of the input; the message asks to
+     report it (``-vv`` prints the traceback)
+130  interrupted (Ctrl-C)
+===  ======================================================================================
+"""
 
 from __future__ import annotations
 
@@ -7,22 +20,60 @@ import json
 import logging
 import sys
 import time
+import traceback
 from collections.abc import Sequence
 from pathlib import Path
 
 from trackmap.builder import build
 from trackmap.check import check
-from trackmap.errors import TrackMapError
-from trackmap.plot import plot
+from trackmap.errors import ParameterError, TrackMapError
 from trackmap.storage import load
 
-__all__ = ["main"]
+__all__ = [
+    "EXIT_FINDINGS",
+    "EXIT_INPUT_ERROR",
+    "EXIT_INTERNAL_ERROR",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "main",
+]
+
+EXIT_OK = 0
+EXIT_FINDINGS = 1
+EXIT_INPUT_ERROR = 2
+EXIT_INTERNAL_ERROR = 3
+EXIT_INTERRUPTED = 130
+_MAX_MESSAGE = 2000
+
+
+def _positive(text: str) -> float:
+    """argparse type: a finite positive number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text[:40]!r}") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text[:40]!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    """argparse type: a non-negative integer."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text[:40]!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more, got {value}")
+    return value
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="trackmap",
         description="Build, inspect, check and draw rail network maps from OpenStreetMap data.",
+        epilog="exit status: 0 ok, 1 check found errors, 2 usage or input error, "
+        "3 internal error (a bug: please report it)",
     )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv: debug)")
     sub = p.add_subparsers(dest="command", required=True)
@@ -38,7 +89,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--driving-side", choices=("right", "left"), default="right")
     b.add_argument(
         "--max-deflection",
-        type=float,
+        type=_positive,
         default=35.0,
         metavar="DEG",
         help="largest change of direction through a switch or crossing (default 35)",
@@ -54,7 +105,15 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="report data problems; exit status 1 if errors are found")
     c.add_argument("map", type=Path)
     c.add_argument("--json", action="store_true", help="machine-readable output")
-    c.add_argument("--limit", type=int, default=20, help="findings listed per code (default 20)")
+    c.add_argument("--limit", type=_count, default=20, help="findings listed per code (default 20)")
+    c.add_argument(
+        "--max-edge-m",
+        type=_positive,
+        default=None,
+        metavar="M",
+        help="edges longer than this are errors (default by kind: tram 5000, light_rail and "
+        "subway 10000, rail 50000)",
+    )
 
     pl = sub.add_parser("plot", help="draw a map: .png/.svg/.pdf (matplotlib) or .html (Leaflet)")
     pl.add_argument("map", type=Path)
@@ -70,15 +129,34 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``trackmap`` command; returns the exit status."""
+    """Entry point of the ``trackmap`` command; returns the exit status (module notes)."""
     args = _parser().parse_args(argv)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    prog = f"trackmap {args.command}"
     try:
         return int(_COMMANDS[args.command](args))
-    except (TrackMapError, ValueError, OSError) as exc:
-        print(f"trackmap {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (TrackMapError, OSError) as exc:
+        print(f"{prog}: error: {_clip(str(exc) or type(exc).__name__)}", file=sys.stderr)
+        return EXIT_INPUT_ERROR
+    except Exception as exc:  # the catch-all: whatever it is, a bug of ours
+        if args.verbose >= 2:
+            traceback.print_exc()
+        print(
+            f"{prog}: internal error: {type(exc).__name__}: {_clip(str(exc))}\n"
+            "This is a bug in trackmap, not a problem of your input. Please report it with "
+            "the command line, the input file if you can share it, and the output of the same "
+            "command run with -vv (it shows the traceback).",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL_ERROR
+
+
+def _clip(text: str) -> str:
+    return text if len(text) <= _MAX_MESSAGE else text[: _MAX_MESSAGE - 3] + "..."
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -97,6 +175,21 @@ def _build(args: argparse.Namespace) -> int:
         f"{s['switches']} switches, {s['diamond_crossings']} diamond crossings, "
         f"{s['conflict_points']} conflict points ({time.perf_counter() - t0:.1f} s)"
     )
+    source = net.metadata.source
+    dropped = {k: v for k, v in source.get("dropped", {}).items() if k != "other_kind"}
+    if dropped:
+        print(
+            f"ways not used: {', '.join(f'{k}={v}' for k, v in sorted(dropped.items()))} "
+            "(other railway kinds not counted)"
+        )
+    clipped = source.get("clipped")
+    if clipped:
+        print(
+            f"cut by the extract's boundary: {clipped.get('ways', 0)} way(s) kept as "
+            f"{clipped.get('pieces', 0)} piece(s), {clipped.get('missing_refs', 0)} node "
+            f"reference(s) without a location, {len(source.get('boundary_nodes', []))} map "
+            "boundary end(s) (listed by 'trackmap check')"
+        )
     return 0
 
 
@@ -120,16 +213,22 @@ def _info(args: argparse.Namespace) -> int:
         print(f"  {key:<26} {shown}")
     print(f"  {'driving_side':<26} {net.metadata.driving_side}")
     print(f"  {'source':<26} {net.metadata.source.get('file', '?')}")
+    clipped = net.metadata.source.get("clipped")
+    if clipped:
+        boundary = len(net.metadata.source.get("boundary_nodes", []))
+        cut = f"{clipped.get('ways', 0)} ways cut, {boundary} boundary nodes"
+        print(f"  {'cut by the extract':<26} {cut}")
     print(f"  {'attribution':<26} {net.metadata.attribution}")
     return 0
 
 
 def _check(args: argparse.Namespace) -> int:
-    report = check(load(args.map))
+    report = check(load(args.map), max_edge_m=args.max_edge_m)
     if args.json:
         print(json.dumps(report.as_dict(), indent=2, ensure_ascii=False))
-        return 0 if report.ok else 1
-    for title, findings in (("error", report.errors), ("warning", report.warnings)):
+        return EXIT_OK if report.ok else EXIT_FINDINGS
+    groups = (("error", report.errors), ("warning", report.warnings), ("note", report.notes))
+    for title, findings in groups:
         shown: dict[str, int] = {}
         for f in findings:
             shown[f.code] = shown.get(f.code, 0) + 1
@@ -141,18 +240,26 @@ def _check(args: argparse.Namespace) -> int:
             print(f"{title}: {f.code}: {f.message}{where}")
     counts = report.counts()
     summary = ", ".join(f"{k}={v}" for k, v in sorted(counts.items())) or "nothing found"
-    print(f"{len(report.errors)} error(s), {len(report.warnings)} warning(s): {summary}")
-    return 0 if report.ok else 1
+    print(
+        f"{len(report.errors)} error(s), {len(report.warnings)} warning(s), "
+        f"{len(report.notes)} note(s): {summary}"
+    )
+    return EXIT_OK if report.ok else EXIT_FINDINGS
 
 
 def _plot(args: argparse.Namespace) -> int:
+    from trackmap.plot import plot
+
     net = load(args.map)
     kwargs: dict[str, object] = {"title": args.title}
     if args.output.suffix.lower() == ".html":
         kwargs["tiles"] = None if args.tiles.lower() == "none" else args.tiles
-    out = plot(net, args.output, **kwargs)
+    try:
+        out = plot(net, args.output, **kwargs)
+    except ValueError as exc:  # plot's own checks: the output suffix, the tile provider
+        raise ParameterError(str(exc)) from exc
     print(f"wrote {out}")
-    return 0
+    return EXIT_OK
 
 
 _COMMANDS = {"build": _build, "info": _info, "check": _check, "plot": _plot}

@@ -10,6 +10,7 @@ __all__ = [
     "MapFileError",
     "MissingDependencyError",
     "NoTracksError",
+    "ParameterError",
     "SourceError",
     "SourceFormatError",
     "TrackMapError",
@@ -31,6 +32,10 @@ class SourceFormatError(TrackMapError, ValueError):
 
 class NoTracksError(TrackMapError, ValueError):
     """A source file holds no usable track of the requested kinds."""
+
+
+class ParameterError(TrackMapError, ValueError):
+    """A function argument or command-line option is outside its valid domain."""
 
 
 class MapFileError(TrackMapError, ValueError):

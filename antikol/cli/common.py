@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
-__all__ = ["add_map_option", "load_map"]
+__all__ = ["add_map_option", "load_map", "positive_float", "positive_int"]
 
 
 def add_map_option(p: argparse.ArgumentParser, *, default: str | None) -> None:
@@ -20,7 +21,13 @@ def add_map_option(p: argparse.ArgumentParser, *, default: str | None) -> None:
 
 
 def load_map(name: str | None) -> Any:
-    """The map a ``--map`` value names, or None for the sector rule only."""
+    """The map a ``--map`` value names, or None for the sector rule only.
+
+    Raises
+    ------
+    trackmap.errors.TrackMapError
+        The map file is missing, unreadable or broken (the message names it).
+    """
     if name is None or name.lower() == "none":
         return None
     import trackmap
@@ -32,3 +39,25 @@ def load_map(name: str | None) -> Any:
 
         return demo_network().build()
     return trackmap.load(name)
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number above 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text[:40]!r}") from None
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text[:40]!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer above 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text[:40]!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be 1 or more, got {value}")
+    return value

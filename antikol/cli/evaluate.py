@@ -7,18 +7,27 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from antikol.cli.common import add_map_option, load_map
+from antikol.cli.common import add_map_option, load_map, positive_float, positive_int
+from antikol.errors import UsageError
 
 __all__ = ["add_parsers"]
 
 logger = logging.getLogger(__name__)
 
+#: ``compare`` ends with the internal-error status when a scenario failed (see antikol.cli).
+EXIT_INTERNAL_ERROR = 3
+
 
 def _scenario_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
-    p.add_argument("--trams", type=int, default=20, help="city scenario: trams (default 20)")
     p.add_argument(
-        "--minutes", type=float, default=30.0, help="city scenario: simulated minutes (default 30)"
+        "--trams", type=positive_int, default=20, help="city scenario: trams (default 20)"
+    )
+    p.add_argument(
+        "--minutes",
+        type=positive_float,
+        default=30.0,
+        help="city scenario: simulated minutes (default 30)",
     )
     p.add_argument(
         "--gps",
@@ -98,7 +107,7 @@ def _scenario_names(name: str) -> list[str]:
     if name == "all":
         return list(SCENARIOS)
     if name not in SCENARIOS:
-        raise ValueError(f"unknown scenario {name!r}; choose from all, {', '.join(SCENARIOS)}")
+        raise UsageError(f"unknown scenario {name[:40]!r}; choose from all, {', '.join(SCENARIOS)}")
     return [name]
 
 
@@ -127,7 +136,7 @@ def _simulate(args: argparse.Namespace) -> int:
 
     net = load_map(args.map)
     if net is None:
-        raise ValueError("simulate needs a map (--map default, synthetic or a map file)")
+        raise UsageError("simulate needs a map (--map default, synthetic or a map file)")
     (name,) = _scenario_names(args.scenario)
     scn = _build(name, net, args)
     result = run_scenario(scn, progress=True)
@@ -194,11 +203,11 @@ def _compare(args: argparse.Namespace) -> int:
 
     net = load_map(args.map)
     if net is None:
-        raise ValueError("compare needs a map (--map default, synthetic or a map file)")
+        raise UsageError("compare needs a map (--map default, synthetic or a map file)")
     failed: list[str] = []
     names = _scenario_names(args.scenario)
     done, skipped = _run_comparisons(net, names, args, args.figures, failed, args.html)
-    status = 1 if failed else 0
+    status = EXIT_INTERNAL_ERROR if failed else 0  # a scenario that failed is a bug
     if args.json:
         doc = {
             "map": args.map,

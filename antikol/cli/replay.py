@@ -1,15 +1,28 @@
-"""``antikol replay``: run the analyser over a recorded log."""
+"""``antikol replay``: run the analyser over a recorded log.
+
+A replay CSV is read twice and never held in memory: a first pass checks every line
+(bad lines are reported with their number and counted by reason; ``--strict`` stops at
+the first) and a second streams the reports in time order through the analyser. The
+other formats are read into memory. The summary accounts for every record: read,
+replayed, rejected by reason; ``--rejects FILE`` writes every rejected record.
+"""
 
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
-from antikol.cli.common import add_map_option, load_map
+from antikol.cli.common import add_map_option, load_map, positive_float
+from antikol.errors import InputFileError, UsageError
+from antikol.ingest.replaylog import RowProblem
 
 __all__ = ["add_parser"]
+
+#: Bad records printed on stderr before the rest are only counted.
+SHOWN_PROBLEMS = 20
 
 
 def add_parser(sub: Any) -> None:
@@ -39,7 +52,7 @@ def add_parser(sub: Any) -> None:
     add_map_option(r, default=None)
     r.add_argument(
         "--cycle",
-        type=float,
+        type=positive_float,
         default=1.0,
         metavar="S",
         help="analysis period in seconds (default 1)",
@@ -60,27 +73,81 @@ def add_parser(sub: Any) -> None:
         help="--html only: online background tiles, a provider name or URL template "
         "(default none: the page makes no network request)",
     )
+    r.add_argument(
+        "--rejects",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="write every rejected record (source, line, reason) to this CSV",
+    )
     r.add_argument("--progress", action="store_true", help="show a progress bar")
 
     r.set_defaults(run=_replay)
 
 
+class _Problems:
+    """Prints the first bad records on stderr and writes all of them to --rejects."""
+
+    def __init__(self, rejects: Path | None) -> None:
+        self.shown = 0
+        self.total = 0
+        self._fh: TextIO | None = None
+        self._writer: Any = None
+        if rejects is not None:
+            try:
+                self._fh = rejects.open("w", newline="", encoding="utf-8")
+            except OSError as exc:
+                raise InputFileError(
+                    f"{rejects}: cannot write the rejected records: {exc.strerror or exc}"
+                ) from exc
+            self._writer = csv.writer(self._fh)
+            self._writer.writerow(["source", "line", "kept", "code", "reason"])
+
+    def __call__(self, problem: RowProblem) -> None:
+        self.total += 1
+        if self._writer is not None:
+            self._writer.writerow(
+                [problem.source, problem.line, problem.kept, problem.category, problem.reason]
+            )
+        if self.shown < SHOWN_PROBLEMS:
+            self.shown += 1
+            what = "note" if problem.kept else "skipped"
+            print(f"{what} {problem.where()}: {problem.reason}", file=sys.stderr)
+
+    def close(self) -> None:
+        if self.total > self.shown:
+            more = self.total - self.shown
+            where = "" if self._fh is None else f" (all are in {self._fh.name})"
+            print(f"... and {more} more bad record(s){where}", file=sys.stderr)
+        if self._fh is not None:
+            self._fh.close()
+
+
 def _replay(args: argparse.Namespace) -> int:
     from antikol.analysis.analyser import Analyser
-    from antikol.evaluation.replay import EventWriter, replay
+    from antikol.evaluation.replay import EventWriter, StreamedLog, replay
     from antikol.ingest.feeds import detect_log_format, read_log
+    from antikol.ingest.replaylog import ReplayLog, scan_replay_csv
 
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
-    log = read_log(args.log, log_format=fmt, strict=args.strict)
-    for problem in log.problems[:20]:
-        what = "note" if problem.kept else "skipped"
-        print(f"{what} {problem.where()}: {problem.reason}", file=sys.stderr)
-    if len(log.problems) > 20:
-        print(f"... and {len(log.problems) - 20} more bad records", file=sys.stderr)
-    for reason, n in sorted(log.ignored.items()):
-        print(f"ignored {n} record(s): {reason}", file=sys.stderr)
-    if not log.reports:
-        raise ValueError(f"{args.log}: no usable report in the {fmt} log")
+    problems = _Problems(args.rejects)
+    log: ReplayLog | StreamedLog
+    try:
+        if fmt == "csv":
+            scan = scan_replay_csv(args.log, strict=args.strict, on_problem=problems)
+            log, usable = StreamedLog(args.log, scan), scan.valid
+        else:
+            log = read_log(args.log, log_format=fmt, strict=args.strict)
+            for problem in log.problems:
+                problems(problem)
+            usable = len(log.reports)
+    finally:
+        problems.close()
+    if isinstance(log, ReplayLog):
+        for reason, n in sorted(log.ignored.items()):
+            print(f"ignored {n} record(s): {reason}", file=sys.stderr)
+    if not usable:
+        raise UsageError(f"{args.log}: no usable report in the {fmt} log")
     net = load_map(args.map)
     analyser = Analyser(track_map=net)
     recorder = None
@@ -103,10 +170,13 @@ def _replay(args: argparse.Namespace) -> int:
         f"replayed {summary.reports} reports ({fmt}) of {summary.vehicles} vehicles in "
         f"{summary.cycles} cycles of {args.cycle:g} s with the {method}"
     )
+    reasons = ", ".join(f"{k}: {v}" for k, v in sorted(summary.rejected_by_reason.items()))
+    read = "" if summary.rows_read is None else f"read {summary.rows_read} rows: "
     print(
-        f"rejected rows: {summary.rejected_rows}; table: "
-        + ", ".join(f"{k}={v}" for k, v in sorted(summary.table.items()))
+        f"{read}{summary.reports} replayed, {summary.rejected_rows} rejected"
+        + (f" ({reasons})" if reasons else "")
     )
+    print(f"rejected rows: {summary.rejected_rows}; table: " + _counts(summary.table))
     print(f"{'vehicle':<12} {'lamp cycles':>12} {'episodes':>9}")
     for vid in sorted(set(summary.lamp_cycles) | set(summary.episodes)):
         print(f"{vid:<12} {summary.lamp_cycles[vid]:>12} {summary.episodes[vid]:>9}")
@@ -126,3 +196,7 @@ def _replay(args: argparse.Namespace) -> int:
         )
         print(f"wrote the result map {page}")
     return 0
+
+
+def _counts(counts: dict[str, int]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in sorted(counts.items()))

@@ -1,7 +1,9 @@
 """Replaying recorded reports through the analyser (the paper's field-test analysis).
 
-Input: a :class:`~antikol.ingest.replaylog.ReplayLog` (CSV or NMEA directory).
-Output: one event row per threat per vehicle per analysis cycle, and a summary.
+Input: a :class:`~antikol.ingest.replaylog.ReplayLog` (any log format, in memory) or a
+:class:`StreamedLog` (a replay CSV streamed in time order, constant memory).
+Output: one event row per threat per vehicle per analysis cycle, and a summary that
+accounts for every record: read, replayed, rejected by reason.
 """
 
 from __future__ import annotations
@@ -11,17 +13,17 @@ import logging
 import math
 import os
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from antikol.analysis.analyser import Analyser
 from antikol.analysis.assessment import Assessment
-from antikol.errors import InputFileError
-from antikol.ingest.replaylog import ReplayLog
+from antikol.errors import InputFileError, InvalidArgumentError
+from antikol.ingest.replaylog import CsvScan, ReplayLog, stream_replay_csv
 from antikol.report import VehicleReport
 
-__all__ = ["EVENT_COLUMNS", "EventWriter", "ReplaySummary", "cycles", "replay"]
+__all__ = ["EVENT_COLUMNS", "EventWriter", "ReplaySummary", "StreamedLog", "cycles", "replay"]
 
 logger = logging.getLogger(__name__)
 
@@ -41,24 +43,66 @@ EVENT_COLUMNS = (
 
 
 def cycles(
-    reports: Sequence[VehicleReport], cycle_s: float
+    reports: Iterable[VehicleReport], cycle_s: float, *, in_time_order: bool = False
 ) -> Iterator[tuple[float, list[VehicleReport]]]:
-    """Group time-ordered reports into analysis cycles.
+    """Group reports into analysis cycles.
 
     Yields ``(t_end, reports)`` for each cycle: every report with
     ``t_end - cycle_s < t <= t_end``; cycles without reports are skipped.
+
+    Parameters
+    ----------
+    reports : iterable of VehicleReport
+    cycle_s : float
+        Analysis period, s.
+    in_time_order : bool
+        The reports come in time order (a stream): they are grouped as they come, one
+        cycle in memory at a time. Otherwise they are sorted first (stable: equal times
+        keep their order).
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``cycle_s`` is not a positive finite number.
     """
-    if not cycle_s > 0:
-        raise ValueError(f"cycle_s must be positive, got {cycle_s}")
-    ordered = sorted(reports, key=lambda r: r.t)
-    i = 0
-    while i < len(ordered):
-        t_end = math.ceil(ordered[i].t / cycle_s - 1e-9) * cycle_s
-        batch = []
-        while i < len(ordered) and ordered[i].t <= t_end + 1e-9:
-            batch.append(ordered[i])
-            i += 1
+    if not (isinstance(cycle_s, (int, float)) and 0 < cycle_s < math.inf):
+        raise InvalidArgumentError("cycle_s", cycle_s, "a positive number of seconds")
+    ordered: Iterable[VehicleReport] = (
+        reports if in_time_order else sorted(reports, key=lambda r: r.t)
+    )
+    batch: list[VehicleReport] = []
+    t_end = -math.inf
+    for r in ordered:
+        if batch and r.t > t_end + 1e-9:
+            yield t_end, batch
+            batch = []
+        if not batch:
+            t_end = math.ceil(r.t / cycle_s - 1e-9) * cycle_s
+        batch.append(r)
+    if batch:
         yield t_end, batch
+
+
+@dataclass(frozen=True)
+class StreamedLog:
+    """A replay CSV replayed as a stream: scanned once, then read again in time order.
+
+    Parameters
+    ----------
+    path : path-like
+        The replay CSV.
+    scan : CsvScan
+        Its first pass (:func:`~antikol.ingest.replaylog.scan_replay_csv`): counts,
+        problems and whether the file is in time order.
+    """
+
+    path: str | os.PathLike[str]
+    scan: CsvScan
+
+    @property
+    def reports(self) -> Iterator[VehicleReport]:
+        """The valid reports in time order (a new pass over the file on each use)."""
+        return stream_replay_csv(self.path, in_time_order=self.scan.in_time_order)
 
 
 @dataclass
@@ -70,7 +114,14 @@ class ReplaySummary:
     cycles : int
     vehicles : int
     reports : int
+        Reports replayed.
     rejected_rows : int
+        Records rejected as bad.
+    rows_read : int or None
+        Records read (replay CSV: data lines), when the reader counts them:
+        ``rows_read == reports + rejected_rows``.
+    rejected_by_reason : dict
+        Rejected records per kind of problem.
     table : dict
         Vehicle-table counters (stale, duplicate, expired...).
     lamp_cycles, episodes : dict
@@ -84,6 +135,8 @@ class ReplaySummary:
     vehicles: int = 0
     reports: int = 0
     rejected_rows: int = 0
+    rows_read: int | None = None
+    rejected_by_reason: dict[str, int] = field(default_factory=dict)
     table: dict[str, int] = field(default_factory=dict)
     lamp_cycles: dict[str, int] = field(default_factory=lambda: defaultdict(int))
     episodes: dict[str, int] = field(default_factory=lambda: defaultdict(int))
@@ -93,7 +146,7 @@ class ReplaySummary:
 
 
 def replay(
-    log: ReplayLog,
+    log: ReplayLog | StreamedLog,
     analyser: Analyser,
     *,
     cycle_s: float = 1.0,
@@ -104,7 +157,8 @@ def replay(
 
     Parameters
     ----------
-    log : ReplayLog
+    log : ReplayLog or StreamedLog
+        Reports in memory (sorted by time here) or a streamed replay CSV.
     analyser : Analyser
     cycle_s : float
         Analysis period, s (the paper: 1 s).
@@ -116,17 +170,38 @@ def replay(
     Returns
     -------
     ReplaySummary
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``cycle_s`` is not a positive number.
     """
-    summary = ReplaySummary(rejected_rows=log.rejected, reports=len(log.reports))
+    if isinstance(log, StreamedLog):
+        summary = ReplaySummary(
+            rejected_rows=log.scan.rejected,
+            rows_read=log.scan.rows,
+            rejected_by_reason=dict(log.scan.rejected_by_reason),
+        )
+        batches = cycles(log.reports, cycle_s, in_time_order=True)
+    else:
+        summary = ReplaySummary(
+            rejected_rows=log.rejected,
+            rows_read=log.rows,
+            rejected_by_reason=log.rejected_by_reason(),
+        )
+        batches = cycles(log.reports, cycle_s)
     lamp_prev: dict[str, bool] = {}
     seen: set[str] = set()
-    batches: Iterable[tuple[float, list[VehicleReport]]] = cycles(log.reports, cycle_s)
     if progress:
-        from tqdm import tqdm
-
-        batches = tqdm(list(batches), desc="replay", unit=" cycle", leave=False)
+        try:
+            from tqdm import tqdm
+        except ImportError:
+            logger.warning("no progress bar: tqdm is not installed (pip install 'antikol[plot]')")
+        else:
+            batches = tqdm(batches, desc="replay", unit=" cycle", leave=False)
     for t_end, batch in batches:
         analyser.update_many(batch)
+        summary.reports += len(batch)
         summary.cycles += 1
         for own_id, a in analyser.assess_all(t=t_end).items():
             seen.add(own_id)

@@ -79,17 +79,21 @@ def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
             head = fh.read(4096)
     except OSError as exc:
         raise InputFileError(f"{p}: cannot read the log: {exc.strerror or exc}") from exc
-    try:
-        text = head.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        return "gtfs-rt"  # binary: a protobuf message
+    # the first line decides; a bad byte further on (a text log with one Latin-1 byte)
+    # must not make the file look binary
+    text = head.decode("utf-8-sig", errors="replace")
     first = text.lstrip().split("\n", 1)[0].strip()
-    if first.startswith(("{", "[", "/hfp")):
-        return "hfp"
     header = [h.strip() for h in first.split(",")]
     if tuple(header[: len(REPLAY_COLUMNS)]) == REPLAY_COLUMNS:
         return "csv"
     if looks_like_hfp_csv(header):
+        return "hfp"
+    try:
+        head.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        if suffix != ".csv":
+            return "gtfs-rt"  # binary: a protobuf message
+    if first.startswith(("{", "[", "/hfp")):
         return "hfp"
     if suffix == ".csv":
         return "csv"  # let the replay reader say what is wrong with the header

@@ -111,7 +111,8 @@ def _vehicle_id(fields: Mapping[str, Any]) -> str:
 
     def plain(value: Any) -> str:
         text = str(value).strip()
-        return str(int(text)) if text.isdigit() else text
+        # "0412" -> "412"; only ASCII digits (int() also reads "²" and fails on 5000 digits)
+        return str(int(text)) if text.isascii() and text.isdigit() and len(text) < 20 else text
 
     return f"{plain(oper)}/{plain(veh)}" if oper is not None and str(oper).strip() else plain(veh)
 
@@ -264,10 +265,12 @@ def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else str(exc)
-        raise InputFileError(f"{p}: cannot read the HFP log: {reason or exc}") from exc
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise InputFileError(f"{p}: cannot read the HFP log: {exc.strerror or exc}") from exc
+    # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
+    # rejected if the byte is in a field it needs, the rest of the file is read as usual
+    text = raw.decode("utf-8-sig", errors="surrogateescape")
     first = text.lstrip().split("\n", 1)[0]
     is_csv = p.suffix.lower() == ".csv" or (
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))

@@ -7,13 +7,15 @@ import logging
 import math
 import os
 from collections import defaultdict
+from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 import shapely
+from pyproj import Geod
 
-from trackmap.builder.sources import RawStop, SourceData, read_source
+from trackmap.builder.sources import RawStop, SourceData, check_kinds, read_source
 from trackmap.builder.topology import (
     Piece,
     classify_node,
@@ -27,8 +29,10 @@ from trackmap.builder.topology import (
     split_ways,
 )
 from trackmap.crs import LocalFrame
+from trackmap.errors import ParameterError, SourceFormatError
 from trackmap.geometry import cumulative_length, end_tangent
 from trackmap.kinds import ConflictKind, NodeClass
+from trackmap.mapfile import MAX_MAP_RADIUS_M
 from trackmap.model import ConflictPoint, Edge, GradeSeparation, MapMetadata, Node, Stop
 from trackmap.network import TrackMap
 
@@ -37,6 +41,7 @@ __all__ = ["DRIVING_SIDES", "assemble", "build"]
 logger = logging.getLogger(__name__)
 
 DRIVING_SIDES = ("right", "left")
+_GEOD = Geod(ellps="WGS84")
 
 
 def build(
@@ -86,28 +91,39 @@ def build(
     ------
     trackmap.errors.SourceError, trackmap.errors.SourceFormatError,
     trackmap.errors.NoTracksError
-        The source cannot be used; the message names the file and the problem.
+        The source cannot be used; the message names the file and the problem (for a
+        malformed element: which one and what is wrong; for a network wider than a map's
+        frame holds: the outlying node).
     trackmap.errors.MissingDependencyError
         Reading OSM XML/PBF needs osmium; the message names the extra to install.
+    trackmap.errors.ParameterError
+        A parameter is outside its domain.
+
+    Notes
+    -----
+    A source cut by a bounding box keeps the located pieces of the ways that cross the
+    box; ``metadata.source`` counts them (``clipped``) and lists the nodes where track
+    leaves the map (``boundary_nodes``, reported by ``trackmap check`` as
+    ``map_boundary``).
     """
-    if driving_side not in DRIVING_SIDES:
-        raise ValueError(f"driving_side must be 'right' or 'left', got {driving_side!r}")
-    if not 0 < max_deflection_deg < 90:
-        raise ValueError(f"max_deflection_deg must be in (0, 90), got {max_deflection_deg}")
-    lo_sp, hi_sp = parallel_spacing_m
-    if not 0 <= lo_sp < hi_sp:
-        raise ValueError(
-            f"parallel_spacing_m must be (min, max) with min < max, got {parallel_spacing_m}"
-        )
-    kind_list = [k.strip() for k in kinds.split(",")] if isinstance(kinds, str) else list(kinds)
+    _check_parameters(
+        driving_side=driving_side,
+        max_deflection_deg=max_deflection_deg,
+        tangent_probe_m=tangent_probe_m,
+        parallel_spacing_m=parallel_spacing_m,
+        fouling_clearance_m=fouling_clearance_m,
+        stop_snap_m=stop_snap_m,
+    )
+    lo_sp, hi_sp = (float(v) for v in parallel_spacing_m)
+    kind_list = sorted(check_kinds(kinds))
     data = read_source(source, kinds=kind_list, progress=progress)
     params = {
         "kinds": kind_list,
-        "max_deflection_deg": max_deflection_deg,
-        "tangent_probe_m": tangent_probe_m,
+        "max_deflection_deg": float(max_deflection_deg),
+        "tangent_probe_m": float(tangent_probe_m),
         "parallel_spacing_m": [lo_sp, hi_sp],
-        "fouling_clearance_m": fouling_clearance_m,
-        "stop_snap_m": stop_snap_m,
+        "fouling_clearance_m": float(fouling_clearance_m),
+        "stop_snap_m": float(stop_snap_m),
     }
     return assemble(
         data,
@@ -138,6 +154,7 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
     )
     frame = LocalFrame.from_wkt(centre.wkt)  # exactly the CRS a saved map will reload
     xs, ys = frame.to_local(lons, lats)
+    _check_extent(data.path, list(coords), lons, lats, xs, ys)
     local = {nid: (float(x), float(y)) for nid, x, y in zip(coords, xs, ys, strict=True)}
 
     pieces, duplicates = drop_duplicate_pieces(
@@ -177,15 +194,24 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
     nodes = _junction_nodes(edges, coords, local, max_deflection, probe, data.node_tags)
     conflicts, grade_sep, overlaps = _conflicts(edges, nodes, pieces, clearance)
     stops = _snap_stops(data.stops, frame, lines, float(params["stop_snap_m"]))  # type: ignore[arg-type]
+    source: dict[str, object] = {
+        "file": Path(data.path).name,
+        "format": data.fmt,
+        "ways": data.kept_ways,
+        "dropped": dict(data.dropped),
+        "duplicate_ways": [list(g) for g in duplicates],
+        "overlapping_edges": overlaps,
+    }
+    if data.bounds is not None:
+        source["bounds"] = list(data.bounds)
+    if data.clipped:
+        junctions = {n.node_id for n in nodes}
+        source["clipped"] = dict(data.clipped)
+        source["boundary_nodes"] = [
+            [nid, way] for nid, way in sorted(set(data.boundary_nodes)) if nid in junctions
+        ]
     meta = MapMetadata(
-        source={
-            "file": Path(data.path).name,
-            "format": data.fmt,
-            "ways": len(data.ways),
-            "dropped": dict(data.dropped),
-            "duplicate_ways": [list(g) for g in duplicates],
-            "overlapping_edges": overlaps,
-        },
+        source=source,
         build=dict(params),
         driving_side=driving_side,
         created=datetime.now(UTC).replace(microsecond=0).isoformat(),
@@ -201,6 +227,74 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
     )
     logger.info("built %r", net)
     return net
+
+
+def _check_parameters(
+    *,
+    driving_side: object,
+    max_deflection_deg: object,
+    tangent_probe_m: object,
+    parallel_spacing_m: object,
+    fouling_clearance_m: object,
+    stop_snap_m: object,
+) -> None:
+    """Raise :class:`ParameterError` for a build parameter outside its domain."""
+    if driving_side not in DRIVING_SIDES:
+        raise ParameterError(f"driving_side must be 'right' or 'left', got {driving_side!r:.40}")
+    # (value, its domain, what the message says)
+    ranges: dict[str, tuple[object, Callable[[float], bool], str]] = {
+        "max_deflection_deg": (max_deflection_deg, lambda v: 0 < v < 90, "in (0, 90) degrees"),
+        "tangent_probe_m": (tangent_probe_m, lambda v: 0 < v <= 1000, "in (0, 1000] m"),
+        "fouling_clearance_m": (fouling_clearance_m, lambda v: 0 <= v <= 1000, "in [0, 1000] m"),
+        "stop_snap_m": (stop_snap_m, lambda v: 0 <= v <= 100_000, "in [0, 100 km]"),
+    }
+    for name, (value, inside, text) in ranges.items():
+        if not (_number(value) and inside(float(value))):  # type: ignore[arg-type]
+            raise ParameterError(f"{name} must be a number {text}, got {value!r:.40}")
+    pair = parallel_spacing_m
+    if not (
+        isinstance(pair, (tuple, list))
+        and len(pair) == 2
+        and all(_number(v) for v in pair)
+        and 0 <= float(pair[0]) < float(pair[1]) <= 1000
+    ):
+        raise ParameterError(
+            f"parallel_spacing_m must be (min, max) metres with 0 <= min < max, got {pair!r:.60}"
+        )
+
+
+def _number(value: object) -> bool:
+    """A finite int or float (not a bool, not an int beyond a double)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _check_extent(
+    path: str,
+    node_ids: list[int],
+    lons: np.ndarray,
+    lats: np.ndarray,
+    xs: np.ndarray,
+    ys: np.ndarray,
+) -> None:
+    """A map's frame holds coordinates within MAX_MAP_RADIUS_M of its centre: name the
+    node that lies farthest from the rest when the source does not fit."""
+    radius = np.hypot(xs, ys)
+    if np.all(np.isfinite(radius)) and float(radius.max()) <= MAX_MAP_RADIUS_M:
+        return
+    mid_lon, mid_lat = float(np.median(lons)), float(np.median(lats))
+    _, _, dist = _GEOD.inv(np.full_like(lons, mid_lon), np.full_like(lats, mid_lat), lons, lats)
+    k = int(np.argmax(dist))
+    raise SourceFormatError(
+        f"{path}: node {node_ids[k]} at ({lons[k]:.7f}, {lats[k]:.7f}) lies "
+        f"{float(dist[k]) / 1000:,.0f} km from the middle of the network ({mid_lon:.5f}, "
+        f"{mid_lat:.5f}); a map spans at most {MAX_MAP_RADIUS_M / 1000:,.0f} km from its "
+        "centre: check that node's coordinates, or cut the source into smaller areas"
+    )
 
 
 def _running_directions(

@@ -3,24 +3,60 @@
 Every reader returns :class:`SourceData`: the track ways of the requested kinds (with node
 ids and WGS84 coordinates) and the tram stops. Filtering happens here, so a whole-city
 extract with roads and buildings works as well as a tram-only file.
+
+Every way element is accounted for: it is kept (whole, or in pieces when cut by the
+extract's boundary), or counted in :attr:`SourceData.dropped` by reason. A file that cannot
+be read as its format raises :class:`~trackmap.errors.SourceFormatError` naming the file,
+the element and what is wrong.
+
+Extracts cut by a bounding box
+------------------------------
+Extract tools (``osmium extract``, Overpass ``(bbox)`` queries) keep every node reference
+of a way that crosses the box but only the nodes inside it. Such a way keeps each run of
+consecutive nodes that have a location (a way may give several pieces); the located node
+next to a missing one is a *boundary node*: the track goes on beyond the map there. The
+counts are in :attr:`SourceData.clipped` and ``trackmap check`` lists boundary nodes as map
+boundaries, not as data errors.
 """
 
 from __future__ import annotations
 
-import json
 import logging
-import math
 import os
-from collections import Counter
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from trackmap.errors import MissingDependencyError, NoTracksError, SourceError, SourceFormatError
+from trackmap.builder.jsonsources import read_geojson, read_overpass
+from trackmap.builder.rawdata import (
+    INT64_MAX,
+    INT64_MIN,
+    KNOWN_KINDS,
+    LIFECYCLE,
+    MARKED_SERVICES,
+    TOPOLOGY_NODE_VALUES,
+    RawStop,
+    RawWay,
+    SourceData,
+    add_way,
+    coordinate_node_id,
+    is_stop,
+    is_topology_node,
+    valid_lonlat,
+    way_rejection,
+)
+from trackmap.errors import (
+    MissingDependencyError,
+    NoTracksError,
+    ParameterError,
+    SourceError,
+    SourceFormatError,
+)
 from trackmap.optional import require
 
 __all__ = [
+    "INT64_MAX",
+    "INT64_MIN",
     "KNOWN_KINDS",
     "LIFECYCLE",
     "MARKED_SERVICES",
@@ -30,88 +66,23 @@ __all__ = [
     "RawStop",
     "RawWay",
     "SourceData",
+    "add_way",
+    "check_kinds",
     "coordinate_node_id",
     "detect_format",
+    "is_stop",
+    "is_topology_node",
     "read_source",
+    "valid_lonlat",
     "way_rejection",
 ]
 
 logger = logging.getLogger(__name__)
 
-#: Railway kinds a map can be built from.
-KNOWN_KINDS = ("tram", "light_rail", "rail", "subway", "narrow_gauge")
-#: Lifecycle prefixes/values that mean "not an operating track".
-LIFECYCLE = ("disused", "abandoned", "razed", "construction", "proposed", "dismantled")
-#: ``service=`` values kept but marked (depot and auxiliary tracks).
-MARKED_SERVICES = ("yard", "siding", "spur", "crossover")
 #: Files larger than this show a progress bar while read, bytes.
 PROGRESS_BYTES = 20_000_000
 
 OSMIUM_SUFFIXES = (".osm.pbf", ".pbf", ".osm", ".osm.bz2", ".osm.gz", ".o5m", ".osc")
-
-
-@dataclass(frozen=True, slots=True)
-class RawWay:
-    """One track way as read from a source.
-
-    Attributes
-    ----------
-    way_id : int
-        OSM way id (or a feature id for GeoJSON without OSM ids).
-    node_ids : tuple of int
-        Node ids along the way. For GeoJSON without node ids, ids derived from the
-        coordinates so that shared vertices join.
-    lon, lat : tuple of float
-        Node coordinates, degrees.
-    tags : dict
-        The way's tags.
-    """
-
-    way_id: int
-    node_ids: tuple[int, ...]
-    lon: tuple[float, ...]
-    lat: tuple[float, ...]
-    tags: Mapping[str, str]
-
-
-@dataclass(frozen=True, slots=True)
-class RawStop:
-    """A stop position (``railway=tram_stop`` and similar) read from a source."""
-
-    node_id: int
-    lon: float
-    lat: float
-    name: str | None
-
-
-@dataclass
-class SourceData:
-    """Everything a map is built from.
-
-    Attributes
-    ----------
-    ways : list of RawWay
-        Kept track ways.
-    stops : list of RawStop
-        Stop positions.
-    path : str
-        The source file.
-    fmt : str
-        ``osmium``, ``overpass-json`` or ``geojson``.
-    dropped : Counter
-        Ways not kept, by reason (``other_kind``, ``lifecycle``, ``area``, ``too_short``,
-        ``missing_nodes``).
-    node_tags : dict
-        Tags of nodes that describe track topology (``railway=switch``,
-        ``railway=railway_crossing``, ``railway=buffer_stop``, ``railway:switch=*``).
-    """
-
-    ways: list[RawWay]
-    stops: list[RawStop]
-    path: str
-    fmt: str
-    dropped: Counter[str] = field(default_factory=Counter)
-    node_tags: dict[int, dict[str, str]] = field(default_factory=dict)
 
 
 def detect_format(path: Path) -> str:
@@ -172,14 +143,17 @@ def read_source(
     SourceError
         The file is missing or unreadable (also an ``OSError``).
     SourceFormatError
-        Unknown format or unparsable content (also a ``ValueError``).
+        Unknown format or unparsable content (also a ``ValueError``); the message names
+        the file, the element and what is wrong.
     NoTracksError
         No operating track of the requested kinds in the file.
     MissingDependencyError
         An OSM XML/PBF file without osmium installed (also an ``ImportError``).
+    ParameterError
+        An unknown track kind.
     """
     p = Path(path)
-    kind_set = _check_kinds(kinds)
+    kind_set = check_kinds(kinds)
     if not p.exists():
         raise SourceError(f"{p}: no such file")
     if not p.is_file():
@@ -194,9 +168,18 @@ def read_source(
     if fmt == "osmium":
         data = _read_osmium(p, kind_set, show)
     elif fmt == "overpass-json":
-        data = _read_overpass(p, kind_set)
+        data = read_overpass(p, kind_set)
     else:
-        data = _read_geojson(p, kind_set)
+        data = read_geojson(p, kind_set)
+    if data.clipped:
+        logger.warning(
+            "%s: %d way(s) cut by the extract's boundary kept as %d piece(s) "
+            "(%d node references without a location)",
+            p,
+            data.clipped["ways"],
+            data.clipped["pieces"],
+            data.clipped["missing_refs"],
+        )
     if not data.ways:
         reasons = ", ".join(f"{k}: {v}" for k, v in sorted(data.dropped.items())) or "none"
         raise NoTracksError(
@@ -205,7 +188,7 @@ def read_source(
     logger.info(
         "%s: %d track ways, %d stops (%s); dropped %s",
         p,
-        len(data.ways),
+        data.kept_ways,
         len(data.stops),
         fmt,
         dict(data.dropped),
@@ -214,54 +197,39 @@ def read_source(
 
 
 # -- filters ------------------------------------------------------------------------------
-def _check_kinds(kinds: Iterable[str]) -> frozenset[str]:
+def check_kinds(kinds: Iterable[str]) -> frozenset[str]:
+    """The set of railway kinds asked for (a comma-separated string or an iterable).
+
+    Raises
+    ------
+    ParameterError
+        An unknown kind, or none.
+    """
     if isinstance(kinds, str):
         kinds = [k.strip() for k in kinds.split(",")]
-    kind_set = frozenset(kinds)
+    try:
+        kind_set = frozenset(kinds)
+    except TypeError:
+        raise ParameterError(f"kinds must be names of track kinds, got {kinds!r:.60}") from None
     unknown = kind_set - set(KNOWN_KINDS)
     if unknown or not kind_set:
-        raise ValueError(f"unknown track kinds {sorted(unknown)}; choose from {KNOWN_KINDS}")
+        shown = sorted(str(k)[:30] for k in unknown)[:5]
+        raise ParameterError(f"unknown track kinds {shown}; choose from {KNOWN_KINDS}")
     return kind_set
-
-
-def way_rejection(tags: Mapping[str, str], kinds: frozenset[str]) -> str | None:
-    """Why a way is not an operating track of the wanted kinds (None if it is one)."""
-    railway = tags.get("railway")
-    if railway in LIFECYCLE:
-        return "lifecycle"
-    if railway not in kinds:
-        return "other_kind"
-    for key in LIFECYCLE:
-        if tags.get(key, "no") not in ("no", "") or f"{key}:railway" in tags:
-            return "lifecycle"
-    if tags.get("area") == "yes":
-        return "area"
-    return None
-
-
-TOPOLOGY_NODE_VALUES = ("switch", "railway_crossing", "buffer_stop")
-
-
-def _is_topology_node(tags: Mapping[str, str]) -> bool:
-    return tags.get("railway") in TOPOLOGY_NODE_VALUES or "railway:switch" in tags
-
-
-def _is_stop(tags: Mapping[str, str]) -> bool:
-    return tags.get("railway") in ("tram_stop", "stop", "halt") or (
-        tags.get("public_transport") == "stop_position"
-        and (tags.get("tram") == "yes" or tags.get("light_rail") == "yes")
-    )
 
 
 # -- osmium -------------------------------------------------------------------------------
 def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceData:
     osmium = require("osmium", purpose=f"reading {path.name} (an OSM file)")
     data = SourceData([], [], str(path), "osmium")
+    # libosmium reports parse errors as RuntimeError, bad ids as ValueError and bad
+    # coordinates as InvalidLocationError (none of them names a line)
+    parse_errors = (RuntimeError, ValueError, osmium.InvalidLocationError)
     try:
-        processor = (
-            osmium.FileProcessor(str(path))
-            .with_locations()
-            .with_filter(osmium.filter.KeyFilter("railway", "railway:switch", "public_transport"))
+        processor = osmium.FileProcessor(str(path))
+        data.bounds = _osmium_bounds(processor)
+        processor = processor.with_locations().with_filter(
+            osmium.filter.KeyFilter("railway", "railway:switch", "public_transport")
         )
         iterator: Iterable[Any] = (
             _with_progress(processor, f"reading {path.name}") if progress else processor
@@ -269,9 +237,9 @@ def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceDat
         for obj in iterator:
             if obj.is_node():
                 tags = dict(obj.tags)
-                if _is_topology_node(tags):
+                if is_topology_node(tags):
                     data.node_tags[obj.id] = tags
-                if _is_stop(tags) and obj.location.valid():
+                if is_stop(tags) and obj.location.valid():
                     data.stops.append(
                         RawStop(obj.id, obj.location.lon, obj.location.lat, tags.get("name"))
                     )
@@ -281,16 +249,22 @@ def _read_osmium(path: Path, kinds: frozenset[str], progress: bool) -> SourceDat
                 if reason:
                     data.dropped[reason] += 1
                     continue
-                try:
-                    nodes = [(n.ref, n.location.lon, n.location.lat) for n in obj.nodes]
-                except osmium.InvalidLocationError:
-                    data.dropped["missing_nodes"] += 1
-                    logger.warning("%s: way %d has nodes without a location", path, obj.id)
-                    continue
-                _add_way(data, obj.id, nodes, tags)
-    except RuntimeError as exc:  # libosmium reports parse errors as RuntimeError
-        raise SourceFormatError(f"{path}: cannot parse as an OSM file: {exc}") from exc
+                refs: list[tuple[int, float, float] | int] = []
+                for n in obj.nodes:
+                    loc = n.location
+                    refs.append((n.ref, loc.lon, loc.lat) if loc.valid() else n.ref)
+                add_way(data, obj.id, refs, tags)
+    except parse_errors as exc:
+        raise SourceFormatError(f"{path}: cannot parse as an OSM file: {_clip(exc)}") from None
     return data
+
+
+def _osmium_bounds(processor: Any) -> tuple[float, float, float, float] | None:
+    box = processor.header.box()
+    if not box.valid():
+        return None
+    bl, tr = box.bottom_left, box.top_right
+    return (bl.lon, bl.lat, tr.lon, tr.lat)
 
 
 def _with_progress(items: Iterable[Any], desc: str) -> Iterable[Any]:
@@ -304,178 +278,7 @@ def _with_progress(items: Iterable[Any], desc: str) -> Iterable[Any]:
     return tqdm(items, desc=desc, unit=" obj", leave=False)
 
 
-# -- Overpass JSON ------------------------------------------------------------------------
-def _read_overpass(path: Path, kinds: frozenset[str]) -> SourceData:
-    doc = _load_json(path)
-    elements = doc.get("elements") if isinstance(doc, dict) else None
-    if not isinstance(elements, list):
-        raise SourceFormatError(f"{path}: Overpass JSON without an 'elements' list")
-    data = SourceData([], [], str(path), "overpass-json")
-    nodes: dict[int, tuple[float, float]] = {}
-    ways: list[dict[str, Any]] = []
-    for i, el in enumerate(elements):
-        if not isinstance(el, dict) or "type" not in el or "id" not in el:
-            raise SourceFormatError(f"{path}: element {i} has no type or id")
-        if el["type"] == "node":
-            lon, lat = el.get("lon"), el.get("lat")
-            if not _valid_lonlat(lon, lat) or lon is None or lat is None:
-                data.dropped["bad_node"] += 1
-                continue
-            nodes[int(el["id"])] = (float(lon), float(lat))
-            tags = {str(k): str(v) for k, v in (el.get("tags") or {}).items()}
-            if _is_topology_node(tags):
-                data.node_tags[int(el["id"])] = tags
-            if _is_stop(tags):
-                data.stops.append(RawStop(int(el["id"]), float(lon), float(lat), tags.get("name")))
-        elif el["type"] == "way":
-            ways.append(el)
-    for el in ways:
-        tags = {str(k): str(v) for k, v in (el.get("tags") or {}).items()}
-        reason = way_rejection(tags, kinds)
-        if reason:
-            data.dropped[reason] += 1
-            continue
-        refs = el.get("nodes") or []
-        geometry = el.get("geometry")  # "out geom" exports carry coordinates inline
-        coords: list[tuple[int, float, float]] = []
-        for j, ref in enumerate(refs):
-            if int(ref) in nodes:
-                coords.append((int(ref), *nodes[int(ref)]))
-            elif isinstance(geometry, list) and j < len(geometry) and geometry[j]:
-                g = geometry[j]
-                coords.append((int(ref), float(g["lon"]), float(g["lat"])))
-            else:
-                coords = []
-                break
-        if not coords:
-            data.dropped["missing_nodes"] += 1
-            logger.warning("%s: way %s references nodes that are not in the file", path, el["id"])
-            continue
-        _add_way(data, int(el["id"]), coords, tags)
-    return data
-
-
-# -- GeoJSON ------------------------------------------------------------------------------
-def _read_geojson(path: Path, kinds: frozenset[str]) -> SourceData:
-    doc = _load_json(path)
-    if isinstance(doc, dict) and "trackmap" in doc:
-        raise SourceFormatError(
-            f"{path}: this is a trackmap map file; open it with trackmap.load(), not build()"
-        )
-    features: list[Any]
-    if isinstance(doc, dict) and doc.get("type") == "Feature":
-        features = [doc]
-    elif isinstance(doc, dict) and doc.get("type") == "FeatureCollection":
-        listed = doc.get("features")
-        if not isinstance(listed, list):
-            raise SourceFormatError(f"{path}: FeatureCollection without a 'features' list")
-        features = listed
-    else:
-        raise SourceFormatError(f"{path}: GeoJSON must be a Feature or a FeatureCollection")
-    data = SourceData([], [], str(path), "geojson")
-    for i, feat in enumerate(features):
-        if not isinstance(feat, dict) or not isinstance(feat.get("geometry"), dict):
-            data.dropped["no_geometry"] += 1
-            continue
-        props = feat.get("properties") or {}
-        tags = {str(k): str(v) for k, v in props.items() if v is not None and k != "nodes"}
-        if "railway" not in tags and isinstance(props.get("tags"), dict):
-            tags.update({str(k): str(v) for k, v in props["tags"].items()})
-        geom = feat["geometry"]
-        gtype = geom.get("type")
-        if gtype == "Point":
-            coords = geom.get("coordinates") or []
-            valid_point = len(coords) >= 2 and _valid_lonlat(coords[0], coords[1])
-            if valid_point and _is_topology_node(tags):
-                data.node_tags[coordinate_node_id(coords[0], coords[1])] = tags
-            if _is_stop(tags) and valid_point:
-                data.stops.append(
-                    RawStop(_feature_id(feat, props, i), coords[0], coords[1], tags.get("name"))
-                )
-            continue
-        if gtype == "LineString":
-            lines = [geom.get("coordinates")]
-        elif gtype == "MultiLineString":
-            lines = list(geom.get("coordinates") or [])
-        else:
-            data.dropped["not_a_line"] += 1
-            continue
-        reason = way_rejection(tags, kinds)
-        if reason:
-            data.dropped[reason] += 1
-            continue
-        fid = _feature_id(feat, props, i)
-        node_list = props.get("nodes")
-        for k, line in enumerate(lines):
-            if not isinstance(line, list) or not all(
-                isinstance(c, (list, tuple)) and len(c) >= 2 and _valid_lonlat(c[0], c[1])
-                for c in line
-            ):
-                data.dropped["bad_coordinates"] += 1
-                logger.warning("%s: feature %d has invalid coordinates", path, i)
-                continue
-            if isinstance(node_list, list) and len(lines) == 1 and len(node_list) == len(line):
-                ids = [int(n) for n in node_list]
-            else:
-                ids = [coordinate_node_id(c[0], c[1]) for c in line]
-            coords = [(n, float(c[0]), float(c[1])) for n, c in zip(ids, line, strict=True)]
-            way_id = fid if len(lines) == 1 else fid * 1000 + k
-            _add_way(data, way_id, coords, tags)
-    return data
-
-
-def coordinate_node_id(lon: float, lat: float) -> int:
-    """A stable negative node id from coordinates rounded to 1e-7 degree.
-
-    GeoJSON has no node ids; vertices at the same rounded position get the same id so
-    lines that share vertices join (negative ids never clash with OSM ids).
-    """
-    ilon = round(lon * 1e7) + 1_800_000_000
-    ilat = round(lat * 1e7) + 900_000_000
-    return -(ilon * 2_000_000_000 + ilat) - 1
-
-
-def _feature_id(feat: dict[str, Any], props: dict[str, Any], index: int) -> int:
-    for candidate in (props.get("osm_id"), props.get("@id"), props.get("id"), feat.get("id")):
-        if candidate is None:
-            continue
-        text = str(candidate).rsplit("/", 1)[-1]
-        if text.lstrip("-").isdigit():
-            return int(text)
-    return index + 1
-
-
 # -- helpers ------------------------------------------------------------------------------
-def _add_way(
-    data: SourceData, way_id: int, nodes: list[tuple[int, float, float]], tags: dict[str, str]
-) -> None:
-    # consecutive repeated nodes (drawing errors) carry no geometry
-    cleaned = [n for i, n in enumerate(nodes) if i == 0 or n[0] != nodes[i - 1][0]]
-    if len(cleaned) < 2:
-        data.dropped["too_short"] += 1
-        return
-    data.ways.append(
-        RawWay(
-            way_id=way_id,
-            node_ids=tuple(n[0] for n in cleaned),
-            lon=tuple(n[1] for n in cleaned),
-            lat=tuple(n[2] for n in cleaned),
-            tags=tags,
-        )
-    )
-
-
-def _valid_lonlat(lon: object, lat: object) -> bool:
-    return (
-        isinstance(lon, (int, float))
-        and isinstance(lat, (int, float))
-        and math.isfinite(lon)
-        and math.isfinite(lat)
-        and -180.0 <= lon <= 180.0
-        and -90.0 <= lat <= 90.0
-    )
-
-
 def _read_head(path: Path, n: int) -> str:
     try:
         with path.open("rb") as fh:
@@ -484,11 +287,6 @@ def _read_head(path: Path, n: int) -> str:
         raise SourceError(f"{path}: cannot read: {exc.strerror or exc}") from exc
 
 
-def _load_json(path: Path) -> Any:
-    try:
-        with path.open("rb") as fh:
-            return json.load(fh)
-    except OSError as exc:
-        raise SourceError(f"{path}: cannot read: {exc.strerror or exc}") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise SourceFormatError(f"{path}: invalid JSON: {exc}") from exc
+def _clip(value: object, limit: int = 200) -> str:
+    text = str(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -37,6 +37,7 @@ from trackmap.geometry import FloatArray, deflection_deg
 from trackmap.kinds import NodeClass
 
 __all__ = [
+    "MAX_LAYER",
     "CrossingHit",
     "EdgeEnd",
     "NodeTopology",
@@ -103,12 +104,17 @@ def parse_maxspeed_mps(value: str | None) -> float | None:
     return speed if 0 < speed < 150 else None
 
 
+#: OSM ``layer`` values beyond this are not layers (OSM uses -5..5).
+MAX_LAYER = 100
+
+
 def parse_layer(tags: Mapping[str, str]) -> int:
-    """OSM ``layer`` as an int (0 when absent or unparsable)."""
+    """OSM ``layer`` as an int (0 when absent, unparsable or beyond +-:data:`MAX_LAYER`)."""
     try:
-        return int(float(tags.get("layer", "0")))
-    except ValueError:
+        layer = int(float(tags.get("layer", "0")))
+    except (ValueError, OverflowError):  # "x", "nan", "inf", "1e400"
         return 0
+    return layer if -MAX_LAYER <= layer <= MAX_LAYER else 0
 
 
 def _yes(tags: Mapping[str, str], key: str) -> bool:
