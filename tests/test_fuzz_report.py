@@ -81,19 +81,12 @@ VALID = st.builds(
 )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=OverflowError,
-    reason="protocol.encode_report: round(hdop * 100) overflows for hdop above ~1.8e306 "
-    "before min() saturates it (and _millimetres for offsets above ~1.8e305 m); the codec "
-    "owner's fix turns this test green — then drop this marker",
-)
 @settings(max_examples=400, deadline=None)
 @given(VALID)
 @example(VehicleReport("T1", 0.0, 50.0, 20.0, 1.0, 2.0, hdop=1e308))
 def test_the_frame_encoder_encodes_any_valid_report(report):
     try:
-        encode_report(report)  # an OverflowError escapes: the xfail's reason
+        encode_report(report)  # no OverflowError, whatever the magnitudes
     except ProtocolError:
         return
     outcome = try_encode(report)

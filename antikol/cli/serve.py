@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from antikol.cli.common import add_map_option, load_map
+from antikol.errors import UsageError
 
 __all__ = ["add_parser"]
 
@@ -84,9 +85,9 @@ def _udp_address(text: str) -> tuple[str, int]:
     try:
         number = int(port)
     except ValueError:
-        raise ValueError(f"--udp: {text!r} is not [HOST:]PORT") from None
+        raise UsageError(f"--udp: {text!r} is not [HOST:]PORT") from None
     if not 0 < number < 65536:
-        raise ValueError(f"--udp: port {number} is out of range")
+        raise UsageError(f"--udp: port {number} is out of range")
     return (host.strip("[]") or "127.0.0.1"), number
 
 
@@ -108,9 +109,9 @@ def _serve(args: argparse.Namespace) -> int:
         fmt = detect_log_format(args.replay) if args.log_format == "auto" else args.log_format
         log = read_log(args.replay, log_format=fmt)
         if not log.reports:
-            raise ValueError(f"{args.replay}: no usable report in the {fmt} log")
+            raise UsageError(f"{args.replay}: no usable report in the {fmt} log")
         if not args.speed > 0:
-            raise ValueError(f"--speed must be positive, got {args.speed}")
+            raise UsageError(f"--speed must be positive, got {args.speed}")
         what = f"replay of {args.replay.name} at {args.speed:g}x"
         view = LiveView(net, source=what)
 

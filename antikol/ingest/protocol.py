@@ -326,8 +326,11 @@ def next_seq(seq: int) -> int:
 
 
 def _millimetres(field: str, value: float, limit: int = _UINT32_MAX) -> int:
+    # compare before rounding: round() of a huge float is an OverflowError, not a value
+    if not 0.0 <= value * 1000.0 <= limit + 0.5:
+        raise EncodeError(field, value, f"outside 0..{limit / 1000.0:.3f} m (millimetres)")
     mm = round(value * 1000.0)
-    if not 0 <= mm <= limit:
+    if mm > limit:
         raise EncodeError(field, value, f"outside 0..{limit / 1000.0:.3f} m (millimetres)")
     return mm
 
@@ -401,7 +404,7 @@ def encode_report(
     if report.route is not None:
         _tlv(body, _T_ROUTE, struct.pack(f">{len(report.route)}I", *report.route))
     if report.hdop is not None:
-        _tlv(body, _T_HDOP, _U16.pack(min(round(report.hdop * 100.0), _UINT16_MAX)))
+        _tlv(body, _T_HDOP, _U16.pack(round(min(report.hdop * 100.0, _UINT16_MAX))))
     if report.fix_quality is not None:
         _tlv(body, _T_FIX, bytes((report.fix_quality,)))
     if report.odometer_m is not None:

@@ -29,6 +29,7 @@ import threading
 from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Any
 
+from antikol.errors import InvalidArgumentError
 from antikol.serve.live import LiveView
 
 __all__ = ["ServerThread", "check_access", "create_app", "is_loopback", "require_serve", "run"]
@@ -90,12 +91,12 @@ def check_access(host: str, token: str | None) -> str | None:
 
     Raises
     ------
-    ValueError
+    InvalidArgumentError
         The token asked for is shorter than 12 characters.
     """
     if token is not None:
         if len(token) < 12:
-            raise ValueError("the access token must be at least 12 characters long")
+            raise InvalidArgumentError("token", "*" * len(token), "at least 12 characters")
         return token
     if is_loopback(host):
         return None

@@ -17,6 +17,7 @@ import asyncio
 import logging
 from typing import Any
 
+from antikol.errors import InvalidArgumentError
 from antikol.evaluation.replay import cycles
 from antikol.ingest.replaylog import ReplayLog
 from antikol.serve.live import LiveView
@@ -56,15 +57,15 @@ async def replay_feed(
 
     Raises
     ------
-    ValueError
+    InvalidArgumentError
         ``speed`` or ``cycle_s`` is not positive, or the log holds no report.
     """
     if not speed > 0:
-        raise ValueError(f"speed must be positive, got {speed}")
+        raise InvalidArgumentError("speed", speed, "a positive factor")
     if not cycle_s > 0:
-        raise ValueError(f"cycle_s must be positive, got {cycle_s}")
+        raise InvalidArgumentError("cycle_s", cycle_s, "a positive period in seconds")
     if not log.reports:
-        raise ValueError("the log holds no report to replay")
+        raise InvalidArgumentError("log", log.source, "holds no report to replay")
     if wait_for_viewer:
         logger.info("replay waits for the first viewer")
         await view.wait_for_viewer()
@@ -117,7 +118,7 @@ async def udp_feed(
         Set once the socket is bound.
     """
     if not cycle_s > 0:
-        raise ValueError(f"cycle_s must be positive, got {cycle_s}")
+        raise InvalidArgumentError("cycle_s", cycle_s, "a positive period in seconds")
     inbox: list[bytes] = []
     loop = asyncio.get_running_loop()
     transport, _ = await loop.create_datagram_endpoint(
