@@ -364,7 +364,8 @@ class Positioner:
         # normalise per vehicle (candidates are grouped by vehicle, in vehicle order)
         vmax = np.full(n, _NEG_INF)
         np.maximum.at(vmax, cv[finite], lp[finite])
-        p = np.where(finite, np.exp(lp - vmax[cv]), 0.0)
+        with np.errstate(invalid="ignore"):  # -inf - -inf where a vehicle has no finite score
+            p = np.where(finite, np.exp(lp - vmax[cv]), 0.0)
         total = np.bincount(cv, weights=p, minlength=n)
         p = p / np.where(total[cv] > 0, total[cv], 1.0)
         rank_order = np.lexsort((-p, cv))
