@@ -22,6 +22,11 @@ def test_build_info_check_plot(tmp_path, capsys):
     assert (tmp_path / "m.png").read_bytes()[:4] == b"\x89PNG"
     assert main(["plot", str(out), "-o", str(tmp_path / "m.html"), "--tiles", "none"]) == 0
     assert "tile.openstreetmap.org" not in (tmp_path / "m.html").read_text()
+    # the default page is offline too; online tiles only on request
+    assert main(["plot", str(out), "-o", str(tmp_path / "d.html")]) == 0
+    assert "tile.openstreetmap.org" not in (tmp_path / "d.html").read_text()
+    assert main(["plot", str(out), "-o", str(tmp_path / "o.html"), "--tiles", "OpenStreetMap"]) == 0
+    assert "tile.openstreetmap.org" in (tmp_path / "o.html").read_text()
 
 
 def test_check_exit_status_and_errors(tmp_path, capsys):

@@ -120,9 +120,10 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("-o", "--output", type=Path, required=True)
     pl.add_argument(
         "--tiles",
-        default="OpenStreetMap",
-        help="HTML only: tile provider or URL template (fetched online when the page is "
-        "viewed); 'none': no tiles, the page makes no network request (default OpenStreetMap)",
+        default="none",
+        help="HTML only: online background tiles, a provider name (e.g. OpenStreetMap) or URL "
+        "template, fetched when the page is viewed (default none: the page makes no network "
+        "request, like antikol's result maps)",
     )
     pl.add_argument("--title", default=None)
     return p

@@ -1,4 +1,4 @@
-"""Command line interface: ``antikol replay | simulate | compare | demo | onboard``.
+"""Command line interface: ``antikol replay | simulate | compare | demo | onboard | serve``.
 
 One module per sub-command registers its parser (``add_parser``) and the function that
 runs it; :func:`main` dispatches and turns every failure into one line and an exit status.
