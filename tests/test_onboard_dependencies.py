@@ -1,5 +1,5 @@
 """On-board use needs none of the extras: no map building (osmium), no figures (matplotlib,
-folium), no progress bars (tqdm)."""
+folium), no progress bars (tqdm), no C-ITS messages (pycrate)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,15 @@ import subprocess
 import sys
 import textwrap
 
-EXTRAS = ("osmium", "matplotlib", "folium", "tqdm")
+EXTRAS = (
+    "osmium",
+    "matplotlib",
+    "folium",
+    "tqdm",
+    "pycrate_asn1dir",
+    "pycrate_asn1rt",
+    "pycrate_core",
+)
 
 ONBOARD = textwrap.dedent(
     """

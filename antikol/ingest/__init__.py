@@ -11,7 +11,9 @@
 * operator feeds: :mod:`antikol.ingest.hfp` (HSL-style high-frequency positioning, JSON or
   CSV) and :mod:`antikol.ingest.gtfsrt` (GTFS-realtime VehiclePositions, needs the
   ``feeds`` extra), sharing :mod:`antikol.ingest.feed_common`;
-* :mod:`antikol.ingest.feeds` — any recorded log, its format recognised.
+* :mod:`antikol.ingest.feeds` — any recorded log, its format recognised;
+* :mod:`antikol.ingest.cam` — reports as ETSI C-ITS CAMs, for units that must speak C-ITS
+  (needs the ``cits`` extra, imported on first use).
 """
 
 from antikol.ingest.auth import (
@@ -22,6 +24,7 @@ from antikol.ingest.auth import (
     generate_key_files,
     load_key_file,
 )
+from antikol.ingest.cam import decode_cam, encode_cam
 from antikol.ingest.feeds import LOG_FORMATS, detect_log_format, read_log
 from antikol.ingest.gtfsrt import read_gtfs_realtime, write_feed_message
 from antikol.ingest.guard import ReplayGuard
@@ -67,8 +70,10 @@ __all__ = [
     "ReplayLog",
     "RowProblem",
     "StreamDecoder",
+    "decode_cam",
     "decode_frame",
     "detect_log_format",
+    "encode_cam",
     "encode_report",
     "format_gga",
     "format_rmc",
