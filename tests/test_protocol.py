@@ -36,7 +36,8 @@ U32 = st.integers(min_value=0, max_value=2**32 - 1)
 
 
 def _utf8_len_ok(s: str) -> bool:
-    return s.isprintable() and 1 <= len(s.encode("utf-8")) <= 32
+    # what VehicleReport accepts: printable, not blank, 1-32 UTF-8 bytes
+    return s.isprintable() and bool(s.strip()) and 1 <= len(s.encode("utf-8")) <= 32
 
 
 vehicle_ids = st.text(st.characters(codec="utf-8"), min_size=1, max_size=32).filter(_utf8_len_ok)
