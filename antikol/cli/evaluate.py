@@ -251,7 +251,8 @@ def _demo(args: argparse.Namespace) -> int:
         f"({net.metadata.attribution}); {args.trams} trams for {args.minutes:g} min"
     )
     args.out.mkdir(parents=True, exist_ok=True)
-    (comp,), _ = _run_comparisons(net, ["city"], args, None)
+    args.tiles = "none"  # the demo's page is offline: Leaflet and the tracks are inlined
+    (comp,), _ = _run_comparisons(net, ["city"], args, None, html=args.out)
     from antikol.evaluation.figures import comparison_figure
 
     fig = comparison_figure(comp, net, args.out / "city.png")
@@ -265,6 +266,7 @@ def _demo(args: argparse.Namespace) -> int:
         f"{comp.truth.vehicle_hours():.1f} vehicle-hours)"
     )
     print(
-        f"figure: {fig}; scores: {args.out / 'city.json'}; {time.perf_counter() - t0:.0f} s in all"
+        f"figure: {fig}; interactive map: {args.out / 'city.html'}; "
+        f"scores: {args.out / 'city.json'}; {time.perf_counter() - t0:.0f} s in all"
     )
     return 0
