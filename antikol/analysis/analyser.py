@@ -465,6 +465,23 @@ class Analyser:
         self._flush()
         return self._source.position(vehicle_id, self.table.clock if t is None else t)
 
+    def memory(self, vehicle_id: str) -> tuple[float | None, bool | None]:
+        """What the analyser remembers of one vehicle beyond its newest report: the course
+        kept from before it stopped (deg) and whether it counts as moving (hysteresis)."""
+        return self.courses.course(vehicle_id), self._moving.get(vehicle_id)
+
+    def restore_memory(
+        self, vehicle_id: str, course_deg: float | None, moving: bool | None
+    ) -> None:
+        """Set a vehicle's :meth:`memory` before its first report (fleet-scale replay starts
+        a time window with the memory its positioning stage recorded)."""
+        self.courses.forget(vehicle_id)
+        if course_deg is not None:
+            self.courses.keep(vehicle_id, course_deg)
+        self._moving.pop(vehicle_id, None)
+        if moving is not None:
+            self._moving[vehicle_id] = moving
+
     def expire(self, t: float) -> list[str]:
         """Drop the vehicles silent for longer than the table's retention at time ``t``.
 
