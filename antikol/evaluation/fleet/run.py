@@ -103,6 +103,7 @@ def replay_archive(
     dashboard: bool = False,
     on_client: Callable[[Any], None] | None = None,
     keep_work: bool = False,
+    quiet: bool = True,
 ) -> FleetSummary:
     """Replay an archive on a ``dask.distributed`` cluster.
 
@@ -131,10 +132,15 @@ def replay_archive(
         Called with the client once connected (e.g. to print ``client.dashboard_link``).
     keep_work : bool
         Keep the working copy of the archive.
+    quiet : bool
+        Local cluster: silence Dask's own log lines (a failed task is still logged here,
+        once, and reported in the summary).
     """
     from dask.distributed import Client, LocalCluster, as_completed
     from dask.distributed import progress as dask_progress
 
+    if quiet:
+        logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = None
     own_client = client is None
     if client is None:
@@ -144,6 +150,7 @@ def replay_archive(
                 threads_per_worker=1,
                 processes=processes,
                 dashboard_address=":0" if dashboard else None,
+                silence_logs=logging.CRITICAL if quiet else logging.WARNING,
             )
             client = Client(cluster)
         else:

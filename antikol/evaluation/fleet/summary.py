@@ -188,7 +188,7 @@ def hotspot_figure(summary: FleetSummary, net: Any, path: str | os.PathLike[str]
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 8))
-    for edge in net.edges.values():
+    for edge in net.edges:
         xs, ys = edge.geometry.xy
         ax.plot(xs, ys, color="0.6", lw=0.6)
     spots = summary.hot_spots
@@ -221,7 +221,7 @@ def hotspot_html(summary: FleetSummary, net: Any, path: str | os.PathLike[str]) 
 
     lon0, lat0 = net.to_lonlat(*_centre(net))
     m = folium.Map(location=[float(lat0), float(lon0)], zoom_start=13, tiles=None)
-    for edge in net.edges.values():
+    for edge in net.edges:
         xs, ys = edge.geometry.xy
         lons, lats = net.to_lonlat(list(xs), list(ys))
         folium.PolyLine(list(zip(lats, lons, strict=True)), color="#777", weight=2).add_to(m)
@@ -242,7 +242,7 @@ def hotspot_html(summary: FleetSummary, net: Any, path: str | os.PathLike[str]) 
 
 def _centre(net: Any) -> tuple[float, float]:
     xs, ys = [], []
-    for edge in net.edges.values():
+    for edge in net.edges:
         b = edge.geometry.bounds
         xs += [b[0], b[2]]
         ys += [b[1], b[3]]
