@@ -209,15 +209,17 @@ def test_flaky_task_succeeds_on_retry(archive, tmp_path, monkeypatch):
 
 
 def test_a_bug_in_a_partition_exits_3(archive, tmp_path, monkeypatch, capsys):
-    def broken(day, vehicle_id, *args):
-        if vehicle_id == "T03":
+    def broken(day, vehicle_ids, *args):
+        if "T03" in vehicle_ids:
             raise RuntimeError("boom")
-        return real(day, vehicle_id, *args)
+        return real(day, vehicle_ids, *args)
 
-    real = fleet_run.position_vehicle_day
-    monkeypatch.setattr(fleet_run, "position_vehicle_day", broken)
+    real = fleet_run.position_vehicles
+    monkeypatch.setattr(fleet_run, "position_vehicles", broken)
     out = tmp_path / "out"
-    code = main(["replay", str(archive), "--fleet", str(out), "--map", MAP, "--no-dask"])
+    code = main(
+        ["replay", str(archive), "--fleet", str(out), "--map", MAP, "--no-dask", "--group", "1"]
+    )
     assert code == 3
     assert "day=0/T03" in capsys.readouterr().err
     events = _events(out)

@@ -60,6 +60,13 @@ def add_fleet_options(r: argparse.ArgumentParser) -> None:
         metavar="M",
         help="side of a map region, m (default 4000; 'inf' for one region)",
     )
+    g.add_argument(
+        "--group",
+        type=positive_int,
+        default=8,
+        metavar="N",
+        help="vehicles positioned together per task (default 8; memory: N vehicle-days)",
+    )
     g.add_argument("--retries", type=int, default=2, metavar="N", help="retries per task")
     g.add_argument("--dashboard", action="store_true", help="serve the Dask dashboard")
     g.add_argument("--keep-work", action="store_true", help="keep DIR/work (working copy)")
@@ -89,6 +96,7 @@ def run_fleet(args: argparse.Namespace) -> int:
         warmup_s=args.warmup,
         region_m=args.region,
         log_format=fmt,
+        group=args.group,
     )
     out: Path = args.fleet
     out.mkdir(parents=True, exist_ok=True)

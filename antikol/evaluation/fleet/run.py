@@ -43,7 +43,7 @@ from antikol.evaluation.fleet.stages import (
     analyse_window,
     ingest_partition,
     load_map_cached,
-    position_vehicle_day,
+    position_vehicles,
 )
 from antikol.evaluation.fleet.summary import FleetSummary, PartitionFailure, merge_hot_spots
 
@@ -220,18 +220,23 @@ def _pipeline(
     failures += failed
     parts: list[IngestResult] = [ingested[name] for name, _, _ in ingest_tasks if name in ingested]
 
-    # stage 1: every vehicle-day alone
-    files_of_vday: dict[tuple[int, str], list[str]] = defaultdict(list)
+    # stage 1: every vehicle-day, in groups of config.group vehicles of a day
+    files_of_vday: dict[tuple[int, str], set[str]] = defaultdict(set)
     for p in parts:
         for vd in p.vehicle_days:
-            files_of_vday[vd].append(p.work_file)
-    pos_tasks: list[Task] = [
-        (f"day={d}/{v}", position_vehicle_day, (d, v, files_of_vday[(d, v)], config, str(out)))
-        for d, v in sorted(files_of_vday)
-    ]
+            files_of_vday[vd].add(p.work_file)
+    pos_tasks: list[Task] = []
+    vdays = sorted(files_of_vday)
+    for d in sorted({d for d, _ in vdays}):
+        of_day = [v for dd, v in vdays if dd == d]
+        for i in range(0, len(of_day), config.group):
+            group = of_day[i : i + config.group]
+            wfiles = sorted(set().union(*(files_of_vday[(d, v)] for v in group)))
+            name = f"day={d}/" + (group[0] if len(group) == 1 else f"{group[0]}..{group[-1]}")
+            pos_tasks.append((name, position_vehicles, (d, group, wfiles, config, str(out))))
     positioned, failed = run("positioning", pos_tasks)
     failures += failed
-    pos_results: list[PositionResult] = list(positioned.values())
+    pos_results: list[PositionResult] = [r for rs in positioned.values() for r in rs]
     files_of_day: dict[int, dict[str, str]] = defaultdict(dict)
     for r in pos_results:
         files_of_day[r.day][r.vehicle_id] = r.file

@@ -2,8 +2,9 @@
 
 1. :func:`ingest_partition` — one archive file into a working-copy Parquet file, with its
    counts and the keys of the work it holds (vehicle-days, window-regions).
-2. :func:`position_vehicle_day` — one vehicle on one day, alone: its track positions at
-   every analysis cycle it is in the vehicle table, written to Parquet.
+2. :func:`position_vehicles` — a group of vehicles on one day (each positioned as if
+   alone): track positions at every analysis cycle a vehicle is in the vehicle table,
+   written to Parquet per vehicle.
 3. :func:`analyse_window` — one time window of one map region: the pairwise analysis (the
    track-aware analyser on the stored positions, and the paper's sector rule beside it),
    events written to Parquet and counts returned.
@@ -84,7 +85,7 @@ __all__ = [
     "analyse_window",
     "ingest_partition",
     "load_map_cached",
-    "position_vehicle_day",
+    "position_vehicles",
 ]
 
 logger = logging.getLogger(__name__)
@@ -147,6 +148,8 @@ class FleetConfig:
         Format of the archive's files (``auto`` recognises each).
     hotspot_m : float
         Grid of the false-alarm hot spots, m.
+    group : int
+        Vehicles positioned together in one task (memory: that many vehicle-days).
     """
 
     map_spec: str = "default"
@@ -160,9 +163,18 @@ class FleetConfig:
     day_offset_s: float = 0.0
     log_format: str = "auto"
     hotspot_m: float = 100.0
+    group: int = 8
 
     def __post_init__(self) -> None:
-        for name in ("cycle_s", "window_s", "region_m", "day_s", "hotspot_m", "max_speed_mps"):
+        for name in (
+            "cycle_s",
+            "window_s",
+            "region_m",
+            "day_s",
+            "hotspot_m",
+            "max_speed_mps",
+            "group",
+        ):
             v = getattr(self, name)
             if not v > 0:
                 raise InvalidArgumentError(name, v, "must be > 0")
@@ -331,63 +343,63 @@ def positions_path(out_dir: str, day: int, vehicle_id: str) -> Path:
     return Path(out_dir) / "positions" / f"day={day}" / f"{quote(vehicle_id, safe='')}.parquet"
 
 
-def position_vehicle_day(
-    day: int, vehicle_id: str, work_files: Sequence[str], config: FleetConfig, out_dir: str
-) -> PositionResult:
-    """Stage 1: position one vehicle on one day, alone, exactly as a whole-fleet replay
+def position_vehicles(
+    day: int,
+    vehicle_ids: Sequence[str],
+    work_files: Sequence[str],
+    config: FleetConfig,
+    out_dir: str,
+) -> list[PositionResult]:
+    """Stage 1: position a group of vehicles on one day, exactly as a whole-fleet replay
     would.
 
-    The vehicle is fed to an :class:`Analyser` of its own in the same analysis cycles as
-    the fleet replay; its position is recorded at every cycle end while it is in the
-    vehicle table (dead-reckoned between its reports), and it is forgotten when the table
-    would drop it. Before a cycle's reports the table's clock is moved to the previous
-    cycle end, where a fleet's clock stands.
+    Positioning is independent per vehicle (the fleet update is vectorised row by row),
+    so a group shares one :class:`Analyser` — for the vectorisation — without changing
+    any vehicle's positions. The group is fed in the same analysis cycles as the fleet
+    replay; every vehicle's position and memory are recorded at every cycle end while it
+    is in the vehicle table (dead-reckoned between its reports), and it is forgotten when
+    the table would drop it. Before a cycle's reports the table's clock is moved to the
+    previous cycle end, where a fleet's clock stands.
     """
+    wanted = set(vehicle_ids)
     reports = [
-        r for r in read_working_copy(work_files, vehicles=[vehicle_id]) if config.day_of(r.t) == day
+        r for r in read_working_copy(work_files, vehicles=wanted) if config.day_of(r.t) == day
     ]
-    km = _vehicle_km(reports)
     net = load_map_cached(config.map_spec)
     c = config.cycle_s
     track = Analyser(track_map=net) if net is not None else None
     sector = Analyser()
     main = track if track is not None else sector
-    rows: list[CycleRecord] = []
-
-    def record(k: int) -> bool:
-        """Record cycle ``k`` (after its reports); False once the vehicle is dropped."""
-        t = k * c
-        for an in (track, sector):
-            if an is not None:
-                an.expire(t)
-        if vehicle_id not in main.table:
-            return False
-        pos = None if track is None else track.position(vehicle_id, t)
-        mem_s = sector.memory(vehicle_id) if vehicle_id in sector.table else (None, None)
-        mem_t = track.memory(vehicle_id) if track is not None else (None, None)
-        rows.append(CycleRecord(vehicle_id, k, pos, mem_t, mem_s))
-        return True
-
-    prev: int | None = None
-    for t_end, batch in cycles(reports, c, in_time_order=True):
-        k = cycle_index(t_end, c)
-        j = k if prev is None else prev + 1
-        while j < k and record(j):  # dead-reckoned cycles until the table drops it
-            j += 1
+    rows: dict[str, list[CycleRecord]] = {v: [] for v in vehicle_ids}
+    batches = {cycle_index(t, c): b for t, b in cycles(reports, c, in_time_order=True)}
+    pending = sorted(batches, reverse=True)
+    k = pending[-1] if pending else 0
+    while pending or len(main.table):
+        if not len(main.table) and pending[-1] > k:
+            k = pending[-1]  # nobody to dead-reckon: jump to the next reports
+        batch = batches.get(k)
         for an in (track, sector):
             if an is not None:
                 an.expire((k - 1) * c)
-                an.update_many(batch)
-        record(k)
-        prev = k
-    if prev is not None:
-        j = prev + 1
-        while record(j):
-            j += 1
-    path = positions_path(out_dir, day, vehicle_id)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_positions(rows, path)
-    return PositionResult(day, vehicle_id, str(path), len(reports), len(rows), km)
+                if batch:
+                    an.update_many(batch)
+                an.expire(k * c)
+        if pending and pending[-1] == k:
+            pending.pop()
+        for vid in main.table.vehicle_ids():
+            pos = None if track is None else track.position(vid, k * c)
+            mem_s = sector.memory(vid) if vid in sector.table else (None, None)
+            mem_t = track.memory(vid) if track is not None else (None, None)
+            rows[vid].append(CycleRecord(vid, k, pos, mem_t, mem_s))
+        k += 1
+    out = []
+    for vid in vehicle_ids:
+        path = positions_path(out_dir, day, vid)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_positions(rows[vid], path)
+        own = [r for r in reports if r.vehicle_id == vid]
+        out.append(PositionResult(day, vid, str(path), len(own), len(rows[vid]), _vehicle_km(own)))
+    return out
 
 
 def _vehicle_km(reports: Sequence[VehicleReport]) -> float:
