@@ -11,8 +11,8 @@ analysis, outputs; the cluster is started before the clock starts):
 
 1. in this process without Dask, one window and one region (the single-process
    reference, no overlaps);
-2. a ``LocalCluster`` of 1 worker process, 10-minute windows (5-minute warm-up), 4 km
-   regions;
+2. a ``LocalCluster`` of 1 worker process, 15-minute windows (5-minute warm-up), 8 km
+   regions (Kraków's network spans about 15 x 10 km: a handful of regions);
 3. the same with 2 worker processes.
 
 The events of 2 and 3 are checked equal to those of 1. The estimate for 10^9 fixes
@@ -50,6 +50,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trams", type=int, default=60)
     ap.add_argument("--minutes", type=float, default=30.0)
+    ap.add_argument("--window", type=float, default=900.0, help="window, s")
+    ap.add_argument("--warmup", type=float, default=300.0, help="warm-up, s")
+    ap.add_argument("--region", type=float, default=8000.0, help="region side, m")
     ap.add_argument("--quick", action="store_true", help="20 trams x 10 min")
     args = ap.parse_args()
     trams, minutes = (20, 10.0) if args.quick else (args.trams, args.minutes)
@@ -64,6 +67,7 @@ def main() -> None:
     tmp = Path(tempfile.mkdtemp(prefix="bench_fleet_"))
     files = write_parquet_archive(result.reports, tmp / "archive", chunk_s=600.0)
     print(f"archive: {len(files)} Parquet files in {tmp / 'archive'}")
+    print(f"windows {args.window:g} s, warm-up {args.warmup:g} s, regions {args.region:g} m")
 
     whole = FleetConfig(map_spec="default", window_s=86_400.0, region_m=math.inf)
     t0 = time.perf_counter()
@@ -71,7 +75,9 @@ def main() -> None:
     wall_ref = time.perf_counter() - t0
     ref_events = events(tmp / "local")
 
-    cfg = FleetConfig(map_spec="default", window_s=600.0, warmup_s=300.0, region_m=4000.0)
+    cfg = FleetConfig(
+        map_spec="default", window_s=args.window, warmup_s=args.warmup, region_m=args.region
+    )
     walls: dict[int, float] = {}
     for n in (1, 2):
         with (

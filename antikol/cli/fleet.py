@@ -56,9 +56,10 @@ def add_fleet_options(r: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--region",
         type=_region,
-        default=4000.0,
+        default=math.inf,
         metavar="M",
-        help="side of a map region, m (default 4000; 'inf' for one region)",
+        help="side of a square map region, m (default inf: one region; regions pay off on "
+        "networks many times the 2.5 km margin across)",
     )
     g.add_argument(
         "--group",
