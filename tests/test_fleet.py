@@ -164,6 +164,24 @@ def test_outputs_and_summary(dask_run):
     assert positions.num_rows > 100
 
 
+def test_replay_csv_partitions_give_the_plain_replay_events(reports, tmp_path):
+    """The archive may be replay CSVs (any format read_log reads), one file per hour, say
+    (CSV rounds the values, so the reference is the plain replay of the CSVs)."""
+    from antikol.ingest.replaylog import read_replay_csv, write_replay_csv
+
+    d = tmp_path / "csv"
+    d.mkdir()
+    write_replay_csv(d / "a.csv", [r for r in reports if r.t <= 300.0])
+    write_replay_csv(d / "b.csv", [r for r in reports if r.t > 300.0])
+    summary = fl.replay_archive_local([d], tmp_path / "out", WHOLE)
+    assert summary.complete and summary.partitions == 2
+    read = read_replay_csv(d / "a.csv").reports + read_replay_csv(d / "b.csv").reports
+    read.sort(key=lambda r: (r.t, r.vehicle_id))
+    events = _events(tmp_path / "out")
+    ours = [{k: r[k] for k in COMPARED} for r in events if r["analyser"] == "track"]
+    assert ours == _plain(read, load_map_cached(MAP))
+
+
 def test_broken_partition_is_retried_and_reported(archive, tmp_path, capsys):
     """An unreadable file is a counted failure (input error: exit 2), never skipped."""
     d = tmp_path / "archive"

@@ -443,8 +443,8 @@ class WindowResult:
         Per analyser, own-vehicle cycles with the lamp on.
     sector_only : dict of (int, int) to dict of str to int
         False-alarm candidates: cycles the sector rule's lamp was on and the track-aware
-        analyser's was off, per hot-spot grid cell, by the reason the map cleared the
-        other vehicle (``Assessment.suppressed``; ``other`` when none was given).
+        analyser's was off, per hot-spot grid cell, by why (``_cleared_because``: the
+        suppression reason, ``track_advisory``, or ``not_flagged``).
     included : int
         Vehicles fed to the analyser (core and margin).
     """
@@ -558,9 +558,7 @@ def analyse_window(
                         alarms[(name, th.kind)] += 1
             t_a, s_a = results.get("track", {}).get(own), results["sector"].get(own)
             if track is not None and s_a is not None and s_a.lamp and not (t_a and t_a.lamp):
-                reason = "other"
-                if t_a is not None and t_a.suppressed:
-                    reason = t_a.suppressed[0].reason
+                reason = _cleared_because(s_a, t_a)
                 gx, gy = _hotspot_cell(net, lon, lat, config.hotspot_m)
                 sector_only[(gx, gy)][reason] += 1
     events_file = None
@@ -588,6 +586,22 @@ def _where(
         if pos is not None:
             return pos.lon, pos.lat
     return newest.lon, newest.lat
+
+
+def _cleared_because(sector: Assessment, track: Assessment | None) -> str:
+    """Why the track-aware analyser did not light the lamp the sector rule lit: the
+    reason it suppressed the sector rule's nearest warning (``parallel_track``...), or
+    ``track_advisory`` when it saw that vehicle but below the warning level."""
+    if track is None:
+        return "not_assessed"
+    other = next((th.vehicle_id for th in sector.threats if th.level in _ALARM), None)
+    for sup in track.suppressed:
+        if sup.vehicle_id == other:
+            return sup.reason
+    for th in track.threats:
+        if th.vehicle_id == other:
+            return f"track_{th.level}"
+    return "not_flagged"
 
 
 def _hotspot_cell(net: Any, lon: float, lat: float, size_m: float) -> tuple[int, int]:

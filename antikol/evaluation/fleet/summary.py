@@ -204,7 +204,7 @@ def hotspot_figure(summary: FleetSummary, net: Any, path: str | os.PathLike[str]
             alpha=0.8,
             zorder=3,
         )
-        fig.colorbar(sc, ax=ax, label="vehicle-cycles: sector lamp on, track lamp off")
+        fig.colorbar(sc, ax=ax, shrink=0.6, label="vehicle-cycles: sector lamp on, track lamp off")
     ax.set_aspect("equal")
     ax.set_xlabel("x, m")
     ax.set_ylabel("y, m")
