@@ -13,22 +13,28 @@ Why the partitions give the single-process answer
 -------------------------------------------------
 **Positioning is independent per vehicle.** The analyser's positioning state of a vehicle
 depends on that vehicle's reports only (the fleet update is vectorised row by row) and on
-*when* the vehicle table drops it. Stage 2 runs the same analyser code as the
-single-process replay but is handed the positions of stage 2 through
-:class:`~antikol.evaluation.fleet.positions.StoredPositions` instead of re-matching: a
-matcher re-started at a window's start would need the vehicle's whole history to reach the
-same hypotheses, stored positions need none.
+*when* the vehicle table drops it, which stage 1 reproduces cycle by cycle. Stage 2 runs
+the same analyser code as the single-process replay but is handed the positions of stage
+1 through :class:`~antikol.evaluation.fleet.positions.StoredPositions` instead of
+re-matching: a matcher re-started at a window's start would need the vehicle's whole
+history (hours, for a tram that never leaves the network) to reach the same hypotheses;
+stored positions need none. Stage 1 also records, per cycle, the rest of what the
+analysers remember of each vehicle alone — the course kept from before it stopped and the
+moving/standing hysteresis (:meth:`Analyser.memory`) — and stage 2 restores it when a
+vehicle first reports in its task, so a tram standing at a terminus for an hour across a
+window start is judged as in a continuous run.
 
-**Time windows overlap by a warm-up.** What the pairwise analysis remembers besides
-positions is short: the vehicle table (reports of the last ``max(expiry, dead
-reckoning)`` = 30 s), each pair's alarm hysteresis (held while the gap closes, released
-seconds after the conflict is over), the course a vehicle kept when it stopped and its
-moving/standing hysteresis. A window's task replays ``warmup_s`` (default 600 s) before its
-first cycle and keeps only the events of its own cycles. The result is exact when no such
-memory crossing a window start is older than the warm-up: no alarm held, and no stop with
-a kept course in effect, for longer than ``warmup_s`` across the boundary. The
-equality test checks it on generated traffic; make the warm-up longer than the longest
-standstill of interest when in doubt (it costs ``warmup_s / window_s`` of extra work).
+**Time windows overlap by a warm-up.** What remains is memory of *pairs* and of the
+table: the vehicle table holds reports of the last ``max(expiry, dead reckoning)`` = 30 s
+and each pair's alarm has hysteresis (held while the gap closes, released seconds after
+the conflict is over). A window's task replays ``warmup_s`` (default 600 s) before its
+first cycle and keeps only the events of its own cycles. The result is exact when no pair
+alarm crossing a window start has been held for longer than the warm-up: 600 s is far
+longer than the hysteresis' hold and release times, but a pair whose gap kept closing
+slowly for ten minutes would break it. ``tests/test_fleet.py`` checks the equality event
+for event on generated traffic with 120 s windows and warm-ups;
+``benchmarks/bench_fleet.py`` checks it on the Kraków map. The warm-up costs
+``warmup_s / window_s`` of extra analysis.
 
 **Map regions overlap by the interaction reach.** A region's task emits the events of the
 vehicles whose newest report lies in its square, but feeds the analyser every report of
