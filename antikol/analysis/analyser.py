@@ -483,16 +483,8 @@ class Analyser:
             self._moving[vehicle_id] = moving
 
     def expire(self, t: float) -> list[str]:
-        """Drop the vehicles silent for longer than the table's retention at time ``t``.
-
-        :meth:`assess_all` does this first; fleet-scale positioning calls it alone to
-        forget a vehicle's state exactly when a whole-fleet replay would.
-
-        Returns
-        -------
-        list of str
-            The vehicles dropped.
-        """
+        """Drop the vehicles silent past the table's retention at time ``t``, s, as
+        :meth:`assess_all` does first; returns their ids (fleet-scale positioning)."""
         return self._expire(float(t))
 
     def assess_all(self, *, t: float | None = None) -> dict[str, Assessment]:
