@@ -55,13 +55,13 @@ from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
 from antikol.kinds import Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
-from antikol.positioning.records import DiscreteFix, FixPoint, TrackPosition
+from antikol.positioning.records import DiscreteFix, FixPoint, PositionSource, TrackPosition
 from antikol.report import VehicleReport
 from antikol.table import CLOCK_WINDOW_S, TableUpdate, VehicleTable
 from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
 from trackmap import Path, TrackMap
 
-__all__ = ["Analyser", "AnalyserConfig", "Zone"]
+__all__ = ["Analyser", "AnalyserConfig", "PositionSource", "Zone"]
 
 logger = logging.getLogger(__name__)
 
@@ -216,6 +216,10 @@ class Analyser:
     clock_window_s, max_new_ids, time_source
         Passed to the :class:`~antikol.table.VehicleTable` (its clock and its cap on new
         vehicle ids; ``max_new_ids="auto"`` caps a control room only).
+    position_source : PositionSource, optional
+        Track positions computed elsewhere (needs ``track_map``): the analyser then feeds
+        it the accepted reports and asks it for positions instead of positioning itself
+        (:attr:`positioner` is None).
     """
 
     def __init__(
@@ -236,6 +240,7 @@ class Analyser:
         clock_window_s: float | None = CLOCK_WINDOW_S,
         max_new_ids: int | Literal["auto"] | None = "auto",
         time_source: Callable[[], float] | None = None,
+        position_source: PositionSource | None = None,
     ) -> None:
         self.track_map = track_map
         self.sector = sector if sector is not None else SectorRule()
@@ -265,10 +270,17 @@ class Analyser:
         self.profile = profile if profile is not None else load_profile("tram")
         self.profiles = dict(profiles or {})
         self.config = config or AnalyserConfig()
+        if position_source is not None and track_map is None:
+            raise InvalidArgumentError(
+                "position_source", position_source, "track positions need a track_map"
+            )
         self.positioner = (
             Positioner(track_map, positioning, fix_points=fix_points)
-            if track_map is not None
+            if track_map is not None and position_source is None
             else None
+        )
+        self._source: PositionSource | None = (
+            position_source if position_source is not None else self.positioner
         )
         c = self.config
         self._view_settings = ViewSettings(
@@ -342,21 +354,22 @@ class Analyser:
         for. One report the positioning cannot use never stops the others: it is counted
         in :attr:`stats` and the vehicle keeps its previous state."""
         results = [self._table_update(r) for r in reports]
-        if self.positioner is not None:
+        if self._source is not None:
             self._pending.extend(r for r, res in zip(reports, results, strict=True) if res.accepted)
         return results
 
     def _flush(self) -> None:
         """Position the reports received since the last query."""
-        if not self._pending or self.positioner is None:
+        source = self._source
+        if not self._pending or source is None:
             return
         pending, self._pending = self._pending, []
         try:
-            self.positioner.update_many(pending, outputs=False)
+            source.update_many(pending, outputs=False)
         except Exception:  # one at a time, to find and count the culprit
             for r in pending:
                 try:
-                    self.positioner.update_many([r], outputs=False)
+                    source.update_many([r], outputs=False)
                 except Exception:
                     self.stats["positioning_error"] += 1
                     logger.exception("positioning failed on a report of %s", r.vehicle_id)
@@ -429,8 +442,8 @@ class Analyser:
             self._pending = [r for r in self._pending if r.vehicle_id != vehicle_id]
         self.courses.forget(vehicle_id)
         self._moving.pop(vehicle_id, None)
-        if self.positioner is not None:
-            self.positioner.forget(vehicle_id)
+        if self._source is not None:
+            self._source.forget(vehicle_id)
         self.alarms.forget(vehicle_id)
         for key in [k for k in self._last_threats if vehicle_id in k]:
             del self._last_threats[key]
@@ -447,10 +460,32 @@ class Analyser:
             Time, s (default: the newest report time); later than the vehicle's last
             report means dead reckoning.
         """
-        if self.positioner is None or vehicle_id not in self.table:
+        if self._source is None or vehicle_id not in self.table:
             return None
         self._flush()
-        return self.positioner.position(vehicle_id, self.table.clock if t is None else t)
+        return self._source.position(vehicle_id, self.table.clock if t is None else t)
+
+    def memory(self, vehicle_id: str) -> tuple[float | None, bool | None]:
+        """What the analyser remembers of one vehicle beyond its newest report: the course
+        kept from before it stopped (deg) and whether it counts as moving (hysteresis)."""
+        return self.courses.course(vehicle_id), self._moving.get(vehicle_id)
+
+    def restore_memory(
+        self, vehicle_id: str, course_deg: float | None, moving: bool | None
+    ) -> None:
+        """Set a vehicle's :meth:`memory` before its first report (fleet-scale replay starts
+        a time window with the memory its positioning stage recorded)."""
+        self.courses.forget(vehicle_id)
+        if course_deg is not None:
+            self.courses.keep(vehicle_id, course_deg)
+        self._moving.pop(vehicle_id, None)
+        if moving is not None:
+            self._moving[vehicle_id] = moving
+
+    def expire(self, t: float) -> list[str]:
+        """Drop the vehicles silent past the table's retention at time ``t``, s, as
+        :meth:`assess_all` does first; returns their ids (fleet-scale positioning)."""
+        return self._expire(float(t))
 
     def assess_all(self, *, t: float | None = None) -> dict[str, Assessment]:
         """Assessments of every vehicle in the table (control-room use)."""
@@ -619,11 +654,13 @@ class Analyser:
         )
 
     # -- building blocks -----------------------------------------------------------------
-    def _expire(self, t: float | None) -> None:
-        for gone in self.table.expire(t):
+    def _expire(self, t: float | None) -> list[str]:
+        dropped = self.table.expire(t)
+        for gone in dropped:
             self._forget(gone)
         if t is not None:
             self.alarms.prune(float(t))
+        return dropped
 
     def _report(self, vid: str) -> VehicleReport:
         report = self.table.get(vid)
@@ -705,11 +742,12 @@ class Analyser:
         cycle = self._cycle
         if cycle is not None and cycle.t == now and self._cycle_version == self._version:
             return cycle
-        if self.positioner is None or self.track_map is None:  # pragma: no cover - guarded
+        source = self._source
+        if source is None or self.track_map is None:  # pragma: no cover - guarded
             raise RuntimeError("views need a map")
         self._flush()
         reports = list(self.table)
-        positions = [self.positioner.position(r.vehicle_id, now) for r in reports]
+        positions = [source.position(r.vehicle_id, now) for r in reports]
         cycle = build_views(
             self.track_map,
             reports,

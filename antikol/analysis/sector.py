@@ -234,3 +234,7 @@ class CourseKeeper:
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle (e.g. when it leaves the vehicle table)."""
         self._courses.pop(vehicle_id, None)
+
+    def keep(self, vehicle_id: str, course_deg: float) -> None:
+        """Set a vehicle's trusted course, degrees (restoring a saved state)."""
+        self._courses[vehicle_id] = float(course_deg)

@@ -11,7 +11,9 @@ Exit status
      one line ``antikol CMD: error: ...`` says what and where
  3   internal error: a bug in antikol, not a problem of the input; the message asks to
      report it (``-vv`` prints the traceback). ``compare`` also ends with 3 when a
-     scenario failed (the others are still scored and printed)
+     scenario failed (the others are still scored and printed); ``replay --fleet`` ends
+     with 2 when a partition failed because of its input and 3 when one failed otherwise
+     (the others are still replayed; every failure is listed)
 130  interrupted (Ctrl-C)
 ===  ======================================================================================
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from antikol.cli.common import add_map_option, load_map, positive_float
+from antikol.cli.fleet import add_fleet_options, run_fleet
 from antikol.errors import InputFileError, UsageError
 from antikol.ingest.replaylog import RowProblem
 
@@ -31,14 +32,16 @@ def add_parser(sub: Any) -> None:
     r.add_argument(
         "log",
         type=Path,
-        help="replay CSV (vehicle_id,t,lat,lon,speed_mps,course_deg), a directory of NMEA "
+        nargs="+",
+        help="with --fleet: archive files and directories (also Parquet); otherwise one "
+        "replay CSV (vehicle_id,t,lat,lon,speed_mps,course_deg), a directory of NMEA "
         "logs, an HSL HFP log (JSON lines or CSV) or GTFS-realtime VehiclePositions (a "
         "feed file or a directory of them)",
     )
     r.add_argument(
         "--format",
         dest="log_format",
-        choices=("auto", "csv", "nmea", "hfp", "gtfs-rt"),
+        choices=("auto", "csv", "nmea", "hfp", "gtfs-rt", "parquet"),
         default="auto",
         help="log format (default: recognised by name and content)",
     )
@@ -81,6 +84,7 @@ def add_parser(sub: Any) -> None:
         help="write every rejected record (source, line, reason) to this CSV",
     )
     r.add_argument("--progress", action="store_true", help="show a progress bar")
+    add_fleet_options(r)
 
     r.set_defaults(run=_replay)
 
@@ -129,6 +133,15 @@ def _replay(args: argparse.Namespace) -> int:
     from antikol.ingest.feeds import detect_log_format, read_log
     from antikol.ingest.replaylog import ReplayLog, scan_replay_csv
 
+    if args.fleet is not None:
+        return run_fleet(args)
+    if args.scheduler is not None or args.no_dask:
+        raise UsageError("--scheduler and --no-dask need --fleet DIR")
+    if len(args.log) != 1:
+        raise UsageError(f"one log at a time without --fleet DIR ({len(args.log)} given)")
+    if args.log_format == "parquet":
+        raise UsageError("Parquet archives are replayed with --fleet DIR")
+    args.log = args.log[0]
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
     problems = _Problems(args.rejects)
     log: ReplayLog | StreamedLog

@@ -9,6 +9,8 @@
 * :mod:`~antikol.evaluation.positioning_accuracy` — track-selective positioning against
   the true track;
 * :mod:`~antikol.evaluation.replay` — recorded logs replayed through the analyser;
+* :mod:`~antikol.evaluation.fleet` — an operator's archive replayed on a Dask cluster
+  (``antikol replay --fleet``); Dask and pyarrow are imported only when it runs;
 * :mod:`~antikol.evaluation.figures` — comparison figures. It needs matplotlib (an
   optional extra), so it is not imported here: import ``antikol.evaluation.figures``.
 """

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 from antikol.kinds import PositionStatus
+from antikol.report import VehicleReport
 
-__all__ = ["DiscreteFix", "FixPoint", "Hypothesis", "TrackPosition"]
+__all__ = ["DiscreteFix", "FixPoint", "Hypothesis", "PositionSource", "TrackPosition"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,3 +113,20 @@ class DiscreteFix:
     edge_id: int
     offset_m: float
     fix_id: str | None = None
+
+
+class PositionSource(Protocol):
+    """Where the analyser's track positions come from (by default its own
+    :class:`~antikol.positioning.matcher.Positioner`).
+
+    Fleet-scale replay (:mod:`antikol.evaluation.fleet`) positions every vehicle alone
+    first and then hands the stored positions to the pairwise analysis through this hook.
+    """
+
+    def update_many(
+        self, reports: Sequence[VehicleReport], *, outputs: bool = True
+    ) -> list[TrackPosition]: ...
+
+    def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None: ...
+
+    def forget(self, vehicle_id: str) -> None: ...
