@@ -70,6 +70,20 @@ def dask_run(archive, tmp_path_factory):
     return fl.replay_archive([archive], out, SMALL, n_workers=2), out
 
 
+def test_a_running_scheduler_given_by_address_gives_the_same_events(archive, local_run, tmp_path):
+    """``scheduler=ADDRESS`` (``--scheduler``): a cluster started elsewhere, reached over TCP."""
+    from distributed import LocalCluster
+
+    out = tmp_path / "remote"
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://")
+        got = fl.replay_archive([archive], out, SMALL, scheduler=cluster.scheduler_address)
+    assert got.complete
+    assert _events(out) == _events(local_run[1])
+
+
 def _events(out: Path) -> list[dict]:
     table = ds.dataset(out / "events", format="parquet", partitioning="hive").to_table()
     rows = [{k: v for k, v in r.items() if k != "day"} for r in table.to_pylist()]
