@@ -42,6 +42,13 @@ from antikol.evaluation.fleet.stages import load_map_cached
 from antikol.sim import Simulator, fleet
 
 
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process, MB (Linux reports ru_maxrss in kB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def events(out: Path) -> list[dict]:
     rows = ds.dataset(out / "events", format="parquet", partitioning="hive").to_table().to_pylist()
     return sorted(rows, key=lambda r: (r["analyser"], r["t"], r["own_id"], r["other_id"]))
@@ -82,6 +89,7 @@ def main() -> None:
         map_spec="default", window_s=args.window, warmup_s=args.warmup, region_m=args.region
     )
     walls: dict[int, float] = {}
+    peaks: dict[int, float] = {}
     for n in (1, 2):
         with (
             LocalCluster(
@@ -93,10 +101,12 @@ def main() -> None:
             t0 = time.perf_counter()
             s = replay_archive([tmp / "archive"], tmp / f"dask{n}", cfg, client=client)
             walls[n] = time.perf_counter() - t0
+            peaks[n] = max(client.run(peak_rss_mb).values())
         same = events(tmp / f"dask{n}") == ref_events
         print(
             f"dask {n} worker(s): {s.tasks}, {walls[n]:.1f} s, complete={s.complete}, "
-            f"events equal to the single-process run: {same} ({s.events} events)"
+            f"events equal to the single-process run: {same} ({s.events} events); "
+            f"peak memory of a worker {peaks[n]:.0f} MB"
         )
 
     print()
