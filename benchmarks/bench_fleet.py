@@ -43,10 +43,15 @@ from antikol.sim import Simulator, fleet
 
 
 def peak_rss_mb() -> float:
-    """Peak resident memory of this process, MB (Linux reports ru_maxrss in kB)."""
-    import resource
+    """Peak resident memory of this process since it started, MB.
 
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    VmHWM of ``/proc/self/status``: getrusage's ru_maxrss would be carried over from the
+    parent through fork and exec, and report the benchmark's own peak for every worker.
+    """
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
 
 
 def events(out: Path) -> list[dict]:

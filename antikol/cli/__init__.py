@@ -29,14 +29,11 @@ import traceback
 from collections.abc import Sequence
 
 from antikol.cli import evaluate, onboard, replay, serve
+from antikol.cli.common import EXIT_INPUT_ERROR, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK
 from antikol.errors import AntikolError
 
 __all__ = ["EXIT_INPUT_ERROR", "EXIT_INTERNAL_ERROR", "EXIT_INTERRUPTED", "EXIT_OK", "main"]
 
-EXIT_OK = 0
-EXIT_INPUT_ERROR = 2
-EXIT_INTERNAL_ERROR = 3
-EXIT_INTERRUPTED = 130
 _MAX_MESSAGE = 2000
 
 

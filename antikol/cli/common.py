@@ -6,7 +6,22 @@ import argparse
 import math
 from typing import Any
 
-__all__ = ["add_map_option", "load_map", "positive_float", "positive_int"]
+__all__ = [
+    "EXIT_INPUT_ERROR",
+    "EXIT_INTERNAL_ERROR",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "add_map_option",
+    "load_map",
+    "positive_float",
+    "positive_int",
+]
+
+#: Exit statuses of the antikol commands (the table is in :mod:`antikol.cli`).
+EXIT_OK = 0
+EXIT_INPUT_ERROR = 2
+EXIT_INTERNAL_ERROR = 3
+EXIT_INTERRUPTED = 130
 
 
 def add_map_option(p: argparse.ArgumentParser, *, default: str | None) -> None:

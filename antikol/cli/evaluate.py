@@ -7,15 +7,18 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from antikol.cli.common import add_map_option, load_map, positive_float, positive_int
+from antikol.cli.common import (
+    EXIT_INTERNAL_ERROR,
+    add_map_option,
+    load_map,
+    positive_float,
+    positive_int,
+)
 from antikol.errors import UsageError
 
 __all__ = ["add_parsers"]
 
 logger = logging.getLogger(__name__)
-
-#: ``compare`` ends with the internal-error status when a scenario failed (see antikol.cli).
-EXIT_INTERNAL_ERROR = 3
 
 
 def _scenario_options(p: argparse.ArgumentParser) -> None:
