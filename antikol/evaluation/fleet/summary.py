@@ -216,15 +216,13 @@ def hotspot_figure(summary: FleetSummary, net: Any, path: str | os.PathLike[str]
 
 
 def hotspot_html(summary: FleetSummary, net: Any, path: str | os.PathLike[str]) -> Path:
-    """An HTML map (folium, no tiles: it makes no network request) of the hot spots."""
+    """A self-contained HTML map of the hot spots over the track map (no tiles, Leaflet
+    inline: the page makes no network request)."""
     import folium
 
-    lon0, lat0 = net.to_lonlat(*_centre(net))
-    m = folium.Map(location=[float(lat0), float(lon0)], zoom_start=13, tiles=None)
-    for edge in net.edges:
-        xs, ys = edge.geometry.xy
-        lons, lats = net.to_lonlat(list(xs), list(ys))
-        folium.PolyLine(list(zip(lats, lons, strict=True)), color="#777", weight=2).add_to(m)
+    from trackmap.plot_html import html_map, save_html
+
+    fmap = html_map(net, tiles=None, title="False-alarm candidates of the sector rule")
     top = summary.hot_spots[0].cycles if summary.hot_spots else 1
     for h in summary.hot_spots:
         why = ", ".join(f"{k}: {v}" for k, v in sorted(h.reasons.items()))
@@ -234,16 +232,5 @@ def hotspot_html(summary: FleetSummary, net: Any, path: str | os.PathLike[str]) 
             color="#c0392b",
             fill=True,
             popup=f"{h.cycles} vehicle-cycles ({why})",
-        ).add_to(m)
-    p = Path(path)
-    m.save(str(p))
-    return p
-
-
-def _centre(net: Any) -> tuple[float, float]:
-    xs, ys = [], []
-    for edge in net.edges:
-        b = edge.geometry.bounds
-        xs += [b[0], b[2]]
-        ys += [b[1], b[3]]
-    return (min(xs) + max(xs)) / 2, (min(ys) + max(ys)) / 2
+        ).add_to(fmap)
+    return save_html(fmap, path)
