@@ -7,9 +7,11 @@ import pytest
 
 pytest.importorskip("pyarrow.parquet")
 
+from antikol.cli import main
 from antikol.evaluation import fleet as fl
 from antikol.evaluation.fleet.stages import load_map_cached
 from antikol.sim import Simulator, fleet
+from trackmap.errors import TrackMapError
 
 MAP = "synthetic"
 
@@ -19,7 +21,9 @@ def archive(tmp_path_factory):
     net = load_map_cached(MAP)
     result = Simulator(net, fleet(net, 4, 1), seed=2).run(120.0)
     d = tmp_path_factory.mktemp("archive")
-    fl.write_parquet_archive(sorted(result.reports, key=lambda r: (r.t, r.vehicle_id)), d)
+    fl.write_parquet_archive(
+        sorted(result.reports, key=lambda r: (r.t, r.vehicle_id)), d, chunk_s=60.0
+    )
     return d
 
 
@@ -48,3 +52,30 @@ def test_hotspot_page_is_self_contained(tmp_path):
     for cdn in ("https://cdn", "unpkg", "jsdelivr", "cdnjs", "bootstrapcdn"):
         assert cdn not in page, cdn
     assert "parallel_track" in page
+
+
+def test_a_bad_map_is_an_input_error_at_once(archive, tmp_path, capsys, monkeypatch):
+    """A broken ``--map`` stops the run before any partition (exit 2, naming the file),
+    instead of failing every partition as a bug."""
+    from antikol.evaluation.fleet import run as fleet_run
+
+    called = []
+
+    def never(*args):
+        called.append(args)
+        raise AssertionError("a partition was read with a broken map")
+
+    monkeypatch.setattr(fleet_run, "ingest_partition", never)
+    bad = tmp_path / "broken_map.json"
+    bad.write_text("{not json", encoding="utf-8")
+    out = tmp_path / "out"
+    code = main(["replay", str(archive), "--fleet", str(out), "--no-dask", "--map", str(bad)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "broken_map.json" in err
+    assert "partition(s) failed" not in err and "task" not in err
+    assert not (out / "summary.json").exists()
+    assert not called
+    with pytest.raises(TrackMapError, match="broken_map.json"):
+        fl.replay_archive_local([archive], tmp_path / "out2", fl.FleetConfig(map_spec=str(bad)))
+    assert not called

@@ -46,6 +46,7 @@ from antikol.evaluation.fleet.stages import (
     position_vehicles,
 )
 from antikol.evaluation.fleet.summary import FleetSummary, PartitionFailure, merge_hot_spots
+from trackmap.errors import TrackMapError
 
 __all__ = ["replay_archive", "replay_archive_local"]
 
@@ -191,7 +192,9 @@ def replay_archive(
 def _failure(stage: str, name: str, exc: BaseException | None) -> PartitionFailure:
     text = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
     logger.error("%s task %s failed: %s", stage, name, text)
-    return PartitionFailure(stage, name, text, isinstance(exc, (AntikolError, OSError)))
+    return PartitionFailure(
+        stage, name, text, isinstance(exc, (AntikolError, TrackMapError, OSError))
+    )
 
 
 def _pipeline(
@@ -204,6 +207,9 @@ def _pipeline(
 ) -> FleetSummary:
     started = time.perf_counter()
     files = find_partitions(paths)
+    # a missing or broken map is the user's input error, raised here at once (not a
+    # failure of every partition); workers load it again from the same spec
+    load_map_cached(config.map_spec)
     out = Path(out_dir)
     for sub in ("events", "positions"):
         if (out / sub).exists():
