@@ -3,11 +3,14 @@ bad settings, rejection reasons, the output directory, the summary's JSON)."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 pytest.importorskip("pyarrow.parquet")
 
 from antikol.cli import main
+from antikol.errors import InvalidArgumentError
 from antikol.evaluation import fleet as fl
 from antikol.evaluation.fleet.stages import load_map_cached
 from antikol.sim import Simulator, fleet
@@ -79,3 +82,46 @@ def test_a_bad_map_is_an_input_error_at_once(archive, tmp_path, capsys, monkeypa
     with pytest.raises(TrackMapError, match="broken_map.json"):
         fl.replay_archive_local([archive], tmp_path / "out2", fl.FleetConfig(map_spec=str(bad)))
     assert not called
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [
+        *[
+            (name, v)
+            for name in ("window_s", "cycle_s")
+            for v in (math.nan, math.inf, -math.inf, 0.0, -1.0)
+        ],
+        *[("warmup_s", v) for v in (math.nan, math.inf, -math.inf, -1.0)],
+        *[("margin_m", v) for v in (math.nan, math.inf, -1.0)],
+        *[("region_m", v) for v in (math.nan, -math.inf, 0.0, -5.0)],
+        *[("day_s", v) for v in (math.nan, math.inf, 0.0)],
+        *[("hotspot_m", v) for v in (math.nan, math.inf, 0.0)],
+        *[("max_speed_mps", v) for v in (math.nan, math.inf, 0.0)],
+        ("day_offset_s", math.nan),
+        *[("group", v) for v in (0, -1, 1.5, 2.0, math.nan, True, "3")],
+    ],
+)
+def test_bad_settings_are_refused_with_the_projects_error(name, value):
+    with pytest.raises(InvalidArgumentError, match=name):
+        fl.FleetConfig(**{name: value})
+
+
+def test_good_edge_settings_are_accepted():
+    cfg = fl.FleetConfig(warmup_s=0.0, region_m=math.inf, group=1)
+    assert cfg.group == 1 and cfg.region_m == math.inf
+
+
+@pytest.mark.parametrize("retries", [-1, 1.5, math.nan, True])
+def test_bad_retries_are_refused(archive, tmp_path, retries):
+    pytest.importorskip("dask.distributed")
+    with pytest.raises(InvalidArgumentError, match="retries"):
+        fl.replay_archive([archive], tmp_path, fl.FleetConfig(map_spec="none"), retries=retries)
+
+
+@pytest.mark.parametrize("option", [["--retries", "-1"], ["--retries", "x"], ["--warmup", "nan"]])
+def test_cli_refuses_bad_fleet_options(archive, tmp_path, option, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["replay", str(archive), "--fleet", str(tmp_path / "o"), "--no-dask", *option])
+    assert exc.value.code == 2
+    assert option[0] in capsys.readouterr().err

@@ -40,6 +40,7 @@ from antikol.evaluation.fleet.stages import (
     IngestResult,
     PositionResult,
     WindowResult,
+    _check_count,
     analyse_window,
     ingest_partition,
     load_map_cached,
@@ -137,6 +138,7 @@ def replay_archive(
         Local cluster: silence Dask's own log lines (a failed task is still logged here,
         once, and reported in the summary).
     """
+    _check_count("retries", retries, minimum=0)
     from dask.distributed import Client, LocalCluster, as_completed
     from dask.distributed import progress as dask_progress
 

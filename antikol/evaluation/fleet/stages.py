@@ -175,20 +175,13 @@ class FleetConfig:
     group: int = 8
 
     def __post_init__(self) -> None:
-        for name in (
-            "cycle_s",
-            "window_s",
-            "region_m",
-            "day_s",
-            "hotspot_m",
-            "max_speed_mps",
-            "group",
-        ):
-            v = getattr(self, name)
-            if not v > 0:
-                raise InvalidArgumentError(name, v, "must be > 0")
-        if self.warmup_s < 0:
-            raise InvalidArgumentError("warmup_s", self.warmup_s, "must be >= 0")
+        for name in ("cycle_s", "window_s", "day_s", "hotspot_m", "max_speed_mps"):
+            _check_real(name, getattr(self, name), lo=0.0, strict=True)
+        _check_real("warmup_s", self.warmup_s, lo=0.0)
+        _check_real("margin_m", self.margin_m, lo=0.0)
+        _check_real("day_offset_s", self.day_offset_s)
+        _check_real("region_m", self.region_m, lo=0.0, strict=True, allow_inf=True)
+        _check_count("group", self.group, minimum=1)
         if abs(self.window_s / self.cycle_s - round(self.window_s / self.cycle_s)) > 1e-9:
             raise InvalidArgumentError("window_s", self.window_s, "must be a multiple of cycle_s")
         if self.margin_m < self.interaction_reach_m():
@@ -242,6 +235,32 @@ class FleetConfig:
             np.floor(np.asarray(x) / self.region_m).astype(np.int64),
             np.floor(np.asarray(y) / self.region_m).astype(np.int64),
         )
+
+
+def _check_real(
+    name: str,
+    value: Any,
+    *,
+    lo: float = -math.inf,
+    strict: bool = False,
+    allow_inf: bool = False,
+) -> None:
+    """Refuse a non-number, NaN, an infinity (unless ``allow_inf``: +inf) or a value
+    below ``lo`` (at ``lo`` too when ``strict``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InvalidArgumentError(name, value, "must be a number")
+    if math.isnan(value) or value == -math.inf or (value == math.inf and not allow_inf):
+        raise InvalidArgumentError(name, value, "must be finite")
+    if value < lo or (strict and value == lo):
+        raise InvalidArgumentError(name, value, f"must be {'>' if strict else '>='} {lo:g}")
+
+
+def _check_count(name: str, value: Any, *, minimum: int) -> None:
+    """Refuse anything but an int (not a bool) of at least ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InvalidArgumentError(name, value, "must be an integer")
+    if value < minimum:
+        raise InvalidArgumentError(name, value, f"must be >= {minimum}")
 
 
 def _local_xy(net: Any, reports: Sequence[VehicleReport]) -> tuple[Any, Any]:
