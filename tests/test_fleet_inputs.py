@@ -125,3 +125,29 @@ def test_cli_refuses_bad_fleet_options(archive, tmp_path, option, capsys):
         main(["replay", str(archive), "--fleet", str(tmp_path / "o"), "--no-dask", *option])
     assert exc.value.code == 2
     assert option[0] in capsys.readouterr().err
+
+
+def test_parquet_rejections_use_the_csv_readers_vocabulary(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from antikol.evaluation.fleet.archive import read_partition
+    from antikol.ingest.replaylog import read_replay_csv
+
+    rows = {
+        "vehicle_id": ["A", "B", "C"],
+        "t": [1.0, 2.0, None],
+        "lat": [50.0, 95.0, 50.0],
+        "lon": [19.9, 19.9, 19.9],
+        "speed_mps": [5.0, 5.0, 5.0],
+        "course_deg": [90.0, 90.0, 90.0],
+    }
+    pq.write_table(pa.table(rows), tmp_path / "p.parquet")
+    got = read_partition(tmp_path / "p.parquet").rejected_by_reason
+    assert got == {"invalid lat": 1, "invalid record": 1}
+    csv = tmp_path / "p.csv"
+    csv.write_text(
+        "vehicle_id,t,lat,lon,speed_mps,course_deg\nA,1,50,19.9,5,90\nB,2,95,19.9,5,90\n",
+        encoding="utf-8",
+    )
+    assert "invalid lat" in read_replay_csv(csv).rejected_by_reason()

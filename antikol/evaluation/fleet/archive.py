@@ -156,8 +156,10 @@ def _read_parquet(p: Path) -> PartitionData:
 
 
 def _category(exc: Exception) -> str:
+    """The reason a row was rejected, in the replay CSV reader's words (``invalid lat``,
+    or ``invalid record`` when no field is named)."""
     field_name = getattr(exc, "field", None)
-    return f"bad_{field_name}" if field_name else "bad_row"
+    return f"invalid {field_name}" if field_name else "invalid record"
 
 
 def write_working_copy(reports: Iterable[VehicleReport], path: str | os.PathLike[str]) -> int:
