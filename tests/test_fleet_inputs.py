@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("pyarrow.parquet")
 
 from antikol.cli import main
-from antikol.errors import InvalidArgumentError
+from antikol.errors import InvalidArgumentError, UsageError
 from antikol.evaluation import fleet as fl
 from antikol.evaluation.fleet.stages import load_map_cached
 from antikol.sim import Simulator, fleet
@@ -151,3 +151,33 @@ def test_parquet_rejections_use_the_csv_readers_vocabulary(tmp_path):
         encoding="utf-8",
     )
     assert "invalid lat" in read_replay_csv(csv).rejected_by_reason()
+
+
+def test_a_non_empty_directory_of_something_else_is_refused(archive, tmp_path):
+    out = tmp_path / "precious"
+    (out / "events").mkdir(parents=True)
+    (out / "events" / "keep.txt").write_text("mine", encoding="utf-8")
+    cfg = fl.FleetConfig(map_spec="none")
+    with pytest.raises(UsageError, match="precious"):
+        fl.replay_archive_local([archive], out, cfg)
+    assert (out / "events" / "keep.txt").read_text(encoding="utf-8") == "mine"
+    # an earlier fleet run's directory is replaced
+    again = tmp_path / "again"
+    fl.replay_archive_local([archive], again, cfg)
+    assert fl.replay_archive_local([archive], again, cfg).complete
+    assert not (again / "events" / "keep.txt").exists()
+
+
+def test_an_output_directory_inside_the_archive_is_not_read_as_partitions(archive, tmp_path):
+    d = tmp_path / "arch"
+    d.mkdir()
+    for f in sorted(archive.glob("*.parquet")):
+        (d / f.name).write_bytes(f.read_bytes())
+    n = len(list(d.glob("*.parquet")))
+    out = d / "fleet-out"
+    cfg = fl.FleetConfig(map_spec=MAP)
+    first = fl.replay_archive_local([d], out, cfg)
+    second = fl.replay_archive_local([d], out, cfg)
+    assert first.partitions == second.partitions == n
+    assert second.complete and second.reports == first.reports
+    assert fl.find_partitions([d], exclude=[out]) == sorted(d.glob("*.parquet"))

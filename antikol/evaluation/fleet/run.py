@@ -17,6 +17,11 @@ the driver holds only the small per-task results. Outputs go to files under ``ou
 * ``summary.json`` — :class:`~.summary.FleetSummary`;
 * ``work/`` — the working copy of the archive (deleted unless ``keep_work``).
 
+``out_dir`` must be new, empty or the directory of an earlier fleet run (it holds
+``summary.json``; its events and positions are replaced): anything else is refused with
+:class:`~antikol.errors.UsageError`. When it lies inside an archive directory, it is not
+read as partitions.
+
 A task that still fails after its retries is reported in the summary with its partition
 and error (``FleetSummary.failures``), never silently skipped; a failed vehicle-day is
 left out of the analysis of its day, so the run is then incomplete.
@@ -33,7 +38,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from antikol.errors import AntikolError
+from antikol.errors import AntikolError, UsageError
 from antikol.evaluation.fleet.archive import find_partitions
 from antikol.evaluation.fleet.stages import (
     FleetConfig,
@@ -208,11 +213,16 @@ def _pipeline(
     keep_work: bool,
 ) -> FleetSummary:
     started = time.perf_counter()
-    files = find_partitions(paths)
+    out = Path(out_dir)
+    if out.is_dir() and any(out.iterdir()) and not (out / "summary.json").is_file():
+        raise UsageError(
+            f"{out}: the output directory is not empty and holds no summary.json of an "
+            "earlier fleet run; give an empty or new directory"
+        )
+    files = find_partitions(paths, exclude=[out])
     # a missing or broken map is the user's input error, raised here at once (not a
     # failure of every partition); workers load it again from the same spec
     load_map_cached(config.map_spec)
-    out = Path(out_dir)
     for sub in ("events", "positions"):
         if (out / sub).exists():
             shutil.rmtree(out / sub)
