@@ -181,3 +181,28 @@ def test_an_output_directory_inside_the_archive_is_not_read_as_partitions(archiv
     assert first.partitions == second.partitions == n
     assert second.complete and second.reports == first.reports
     assert fl.find_partitions([d], exclude=[out]) == sorted(d.glob("*.parquet"))
+
+
+def test_summary_json_is_valid_when_no_vehicle_km(tmp_path):
+    import json
+
+    summary = fl.FleetSummary(
+        partitions=1,
+        rows_read=2,
+        reports=2,
+        rejected_by_reason={},
+        vehicles=2,
+        vehicle_days=2,
+        vehicle_km=0.0,
+        vehicle_cycles=2,
+        events=1,
+        alarms={"sector": {"rear_end": 1}},
+        lamp_cycles={"sector": 1},
+    )
+
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    text = summary.to_json(tmp_path / "s.json").read_text(encoding="utf-8")
+    data = json.loads(text, parse_constant=refuse)
+    assert data["per_vehicle_km"] == {"sector": {"rear_end": None}}

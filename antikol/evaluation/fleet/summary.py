@@ -10,6 +10,7 @@ say no more; on simulated traffic :mod:`antikol.evaluation.scoring` scores both.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections import Counter
 from collections.abc import Sequence
@@ -126,11 +127,13 @@ class FleetSummary:
         return {k: (n / km if km > 0 else float("nan")) for k, n in sorted(counts.items())}
 
     def to_json(self, path: str | os.PathLike[str]) -> Path:
-        """Write the summary as JSON."""
+        """Write the summary as JSON (a rate that is not a number, with no vehicle-km,
+        is written as null)."""
         p = Path(path)
         data = asdict(self)
         data["per_vehicle_km"] = {a: self.per_vehicle_km(a) for a in self.alarms}
-        p.write_text(json.dumps(data, indent=2, default=str), encoding="utf-8")
+        text = json.dumps(_finite(data), indent=2, default=str, allow_nan=False)
+        p.write_text(text, encoding="utf-8")
         return p
 
     def lines(self) -> list[str]:
@@ -162,6 +165,17 @@ class FleetSummary:
         for f in self.failures:
             out.append(f"FAILED {f.stage} {f.name}: {f.error}")
         return out
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinite float (in dicts, lists, tuples) made None."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def merge_hot_spots(
