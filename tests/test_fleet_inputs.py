@@ -206,3 +206,21 @@ def test_summary_json_is_valid_when_no_vehicle_km(tmp_path):
     text = summary.to_json(tmp_path / "s.json").read_text(encoding="utf-8")
     data = json.loads(text, parse_constant=refuse)
     assert data["per_vehicle_km"] == {"sector": {"rear_end": None}}
+
+
+def test_replay_archive_restores_the_distributed_log_level(archive, tmp_path):
+    """``quiet`` silences Dask's logger for the run only (the run here stops at once: the
+    output directory is refused; no cluster is started as a client is given)."""
+    import logging
+
+    pytest.importorskip("dask.distributed")
+    log = logging.getLogger("distributed")
+    before = log.level
+    log.setLevel(logging.INFO)
+    try:
+        (tmp_path / "x.txt").write_text("x", encoding="utf-8")
+        with pytest.raises(UsageError):
+            fl.replay_archive([archive], tmp_path, fl.FleetConfig(map_spec="none"), client=object())
+        assert log.level == logging.INFO
+    finally:
+        log.setLevel(before)

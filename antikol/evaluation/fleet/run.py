@@ -144,11 +144,49 @@ def replay_archive(
         once, and reported in the summary).
     """
     _check_count("retries", retries, minimum=0)
+    dask_log = logging.getLogger("distributed")
+    level = dask_log.level
+    if quiet:
+        dask_log.setLevel(logging.ERROR)
+    try:
+        return _on_cluster(
+            paths,
+            out_dir,
+            config,
+            client=client,
+            scheduler=scheduler,
+            n_workers=n_workers,
+            processes=processes,
+            retries=retries,
+            progress=progress,
+            dashboard=dashboard,
+            on_client=on_client,
+            keep_work=keep_work,
+            quiet=quiet,
+        )
+    finally:
+        dask_log.setLevel(level)  # quiet for this run only
+
+
+def _on_cluster(
+    paths: Sequence[str | os.PathLike[str]],
+    out_dir: str | os.PathLike[str],
+    config: FleetConfig,
+    *,
+    client: Any,
+    scheduler: str | None,
+    n_workers: int,
+    processes: bool,
+    retries: int,
+    progress: bool,
+    dashboard: bool,
+    on_client: Callable[[Any], None] | None,
+    keep_work: bool,
+    quiet: bool,
+) -> FleetSummary:
     from dask.distributed import Client, LocalCluster, as_completed
     from dask.distributed import progress as dask_progress
 
-    if quiet:
-        logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = None
     own_client = client is None
     if client is None:
