@@ -224,3 +224,26 @@ def test_replay_archive_restores_the_distributed_log_level(archive, tmp_path):
         assert log.level == logging.INFO
     finally:
         log.setLevel(before)
+
+
+@pytest.mark.parametrize("warmup_s", [0.0, 0.4, 1.0, 2.5, 3.5, 120.0, 1e6])
+def test_one_warmup_start_for_the_driver_and_the_window_task(
+    archive, tmp_path, monkeypatch, warmup_s
+):
+    """The driver (which picks the files a window's task reads) and the task (which
+    replays from there) take the warm-up's first cycle from the same method."""
+    cfg = fl.FleetConfig(map_spec="none", window_s=60.0, warmup_s=warmup_s)
+    lo, _ = cfg.bounds(0, 1)
+    assert cfg.warmup_start(0, 1) == max(lo - math.ceil(warmup_s - 1e-9), cfg.first_cycle(0))
+    calls = []
+    real = fl.FleetConfig.warmup_start
+
+    def spy(self, day, window):
+        calls.append((day, window))
+        return real(self, day, window)
+
+    monkeypatch.setattr(fl.FleetConfig, "warmup_start", spy)
+    summary = fl.replay_archive_local([archive], tmp_path / "o", cfg)
+    assert summary.complete
+    # once per analysis task in the driver, once in the task
+    assert len(calls) == 2 * summary.tasks["analysis"] > 0

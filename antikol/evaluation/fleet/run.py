@@ -308,8 +308,8 @@ def _pipeline(
     keys = sorted({key for p in parts for key in p.windows})
     win_tasks: list[Task] = []
     for d, w, cx, cy in keys:
-        lo, _ = config.bounds(d, w)
-        first = config.window_of(lo - round(config.warmup_s / config.cycle_s) - 1)
+        # the task reads reports from its warm-up's first cycle (and one before)
+        first = config.window_of(config.warmup_start(d, w) - 1)
         needed = {(d, ww) for ww in range(first, w + 1)}
         wfiles = [f for f, ws in windows_of_file.items() if ws & needed]
         win_tasks.append(

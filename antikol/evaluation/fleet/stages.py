@@ -227,6 +227,13 @@ class FleetConfig:
         lo, hi = window * self.window_cycles, (window + 1) * self.window_cycles
         return max(lo, self.first_cycle(day)), min(hi, self.first_cycle(day + 1))
 
+    def warmup_start(self, day: int, window: int) -> int:
+        """The first cycle a window's task replays: ``warmup_s`` before the window's
+        first cycle (rounded up to whole cycles), never before the day's first cycle."""
+        lo, _ = self.bounds(day, window)
+        warm = lo - math.ceil(self.warmup_s / self.cycle_s - 1e-9)
+        return max(warm, self.first_cycle(day))
+
     def cell_of(self, x: Any, y: Any) -> tuple[Any, Any]:
         """Region indices of local coordinates (arrays or scalars)."""
         if math.isinf(self.region_m):
@@ -513,8 +520,7 @@ def analyse_window(
     """
     c = config.cycle_s
     lo, hi = config.bounds(day, window)
-    warm = lo - math.ceil(config.warmup_s / c - 1e-9)
-    warm = max(warm, config.first_cycle(day))
+    warm = config.warmup_start(day, window)
     net = load_map_cached(config.map_spec)
     reports = [
         r
