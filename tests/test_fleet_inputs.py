@@ -247,3 +247,20 @@ def test_one_warmup_start_for_the_driver_and_the_window_task(
     assert summary.complete
     # once per analysis task in the driver, once in the task
     assert len(calls) == 2 * summary.tasks["analysis"] > 0
+
+
+def test_vehicle_km_is_the_wgs84_distance_of_close_fixes():
+    from antikol.analysis.geometry import geodesic_inverse
+    from antikol.evaluation.fleet.stages import _vehicle_km
+    from antikol.report import VehicleReport
+
+    lats = [50.0, 50.0001, 50.0002, 50.0003, 50.0004]
+    ts = [0.0, 1.0, 2.0, 30.0, 31.0]  # the 28 s gap is not counted
+    reps = [
+        VehicleReport("A", t=t, lat=la, lon=19.9, speed_mps=10.0, course_deg=0.0)
+        for t, la in zip(ts, lats, strict=True)
+    ]
+    d, _ = geodesic_inverse(lats[:-1], [19.9] * 4, lats[1:], [19.9] * 4)
+    want = (d[0] + d[1] + d[3]) / 1000.0
+    assert _vehicle_km(reps) == pytest.approx(want, rel=1e-9)
+    assert _vehicle_km(reps[:1]) == 0.0

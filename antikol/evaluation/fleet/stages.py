@@ -63,6 +63,7 @@ import numpy as np
 from antikol.analysis import braking
 from antikol.analysis.analyser import Analyser
 from antikol.analysis.assessment import Assessment
+from antikol.analysis.geometry import geodesic_inverse
 from antikol.analysis.profiles import load_profile
 from antikol.errors import InvalidArgumentError
 from antikol.evaluation.fleet.archive import (
@@ -429,27 +430,29 @@ def position_vehicles(
             mem_t = track.memory(vid) if track is not None else (None, None)
             rows[vid].append(CycleRecord(vid, k, pos, mem_t, mem_s))
         k += 1
+    own_reports: dict[str, list[VehicleReport]] = defaultdict(list)
+    for r in reports:  # in time order, as read
+        own_reports[r.vehicle_id].append(r)
     out = []
     for vid in vehicle_ids:
         path = positions_path(out_dir, day, vid)
         path.parent.mkdir(parents=True, exist_ok=True)
         write_positions(rows[vid], path)
-        own = [r for r in reports if r.vehicle_id == vid]
+        own = own_reports.get(vid, [])
         out.append(PositionResult(day, vid, str(path), len(own), len(rows[vid]), _vehicle_km(own)))
     return out
 
 
 def _vehicle_km(reports: Sequence[VehicleReport]) -> float:
+    """Distance between successive fixes at most 10 s apart (and at most 100 m/s), on
+    the WGS84 ellipsoid, km."""
     if len(reports) < 2:
         return 0.0
-    lat = np.radians([r.lat for r in reports])
-    lon = np.radians([r.lon for r in reports])
-    t = np.array([r.t for r in reports])
-    a = (
-        np.sin(np.diff(lat) / 2) ** 2
-        + np.cos(lat[:-1]) * np.cos(lat[1:]) * np.sin(np.diff(lon) / 2) ** 2
-    )
-    d = 2 * 6_371_008.8 * np.arcsin(np.sqrt(np.clip(a, 0.0, 1.0)))
+    lat = np.array([r.lat for r in reports], dtype=float)
+    lon = np.array([r.lon for r in reports], dtype=float)
+    t = np.array([r.t for r in reports], dtype=float)
+    d, _ = geodesic_inverse(lat[:-1], lon[:-1], lat[1:], lon[1:])
+    d = np.asarray(d, dtype=float)
     dt = np.diff(t)
     ok = (dt > 0) & (dt <= 10.0) & (d <= 100.0 * np.maximum(dt, 1e-9))
     return float(np.sum(d[ok]) / 1000.0)
