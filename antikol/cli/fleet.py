@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from antikol.cli.common import positive_float, positive_int
+from antikol.cli.common import non_negative_float, non_negative_int, positive_float, positive_int
 from antikol.errors import UsageError
 
 __all__ = ["add_fleet_options", "run_fleet"]
@@ -48,7 +48,7 @@ def add_fleet_options(r: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--warmup",
-        type=float,
+        type=non_negative_float,
         default=600.0,
         metavar="S",
         help="replay before each window whose events are discarded, s (default 600)",
@@ -68,7 +68,9 @@ def add_fleet_options(r: argparse.ArgumentParser) -> None:
         metavar="N",
         help="vehicles positioned together per task (default 8; memory: N vehicle-days)",
     )
-    g.add_argument("--retries", type=int, default=2, metavar="N", help="retries per task")
+    g.add_argument(
+        "--retries", type=non_negative_int, default=2, metavar="N", help="retries per task"
+    )
     g.add_argument("--dashboard", action="store_true", help="serve the Dask dashboard")
     g.add_argument("--keep-work", action="store_true", help="keep DIR/work (working copy)")
 
@@ -86,8 +88,6 @@ def run_fleet(args: argparse.Namespace) -> int:
 
     if args.html is not None or args.rejects is not None or args.strict:
         raise UsageError("--html, --rejects and --strict apply to a single log, not to --fleet")
-    if args.warmup < 0 or not math.isfinite(args.warmup):
-        raise UsageError(f"--warmup must be 0 or more seconds, got {args.warmup}")
     map_spec = args.map if args.map is not None else "none"
     fmt = args.log_format
     config = FleetConfig(

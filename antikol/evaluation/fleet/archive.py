@@ -75,27 +75,38 @@ class PartitionData:
     rejected_by_reason: dict[str, int] = field(default_factory=dict)
 
 
-def find_partitions(paths: Sequence[str | os.PathLike[str]]) -> list[Path]:
+def find_partitions(
+    paths: Sequence[str | os.PathLike[str]],
+    *,
+    exclude: Sequence[str | os.PathLike[str]] = (),
+) -> list[Path]:
     """The partition files of an archive given as files and directories.
 
     A directory contributes its files (recursively, sorted by path; hidden files and
     ``_SUCCESS``-style markers skipped) — except a directory of NMEA logs, which is one
-    partition.
+    partition. Files under a directory of ``exclude`` (a replay's output directory lying
+    inside the archive) are skipped.
 
     Raises
     ------
     InputFileError
         A path does not exist, or nothing is found.
     """
+    skipped = [Path(e).resolve() for e in exclude]
+
+    def wanted(q: Path) -> bool:
+        if not q.is_file() or q.name.startswith((".", "_")):
+            return False
+        r = q.resolve()
+        return not any(r.is_relative_to(e) for e in skipped)
+
     out: list[Path] = []
     for raw in paths:
         p = Path(raw)
         if not p.exists():
             raise InputFileError(f"{p}: no such file or directory")
         if p.is_dir() and not any(q.suffix.lower() == ".nmea" for q in p.iterdir()):
-            out.extend(
-                q for q in sorted(p.rglob("*")) if q.is_file() and not q.name.startswith((".", "_"))
-            )
+            out.extend(q for q in sorted(p.rglob("*")) if wanted(q))
         else:
             out.append(p)
     if not out:
@@ -156,8 +167,10 @@ def _read_parquet(p: Path) -> PartitionData:
 
 
 def _category(exc: Exception) -> str:
+    """The reason a row was rejected, in the replay CSV reader's words (``invalid lat``,
+    or ``invalid record`` when no field is named)."""
     field_name = getattr(exc, "field", None)
-    return f"bad_{field_name}" if field_name else "bad_row"
+    return f"invalid {field_name}" if field_name else "invalid record"
 
 
 def write_working_copy(reports: Iterable[VehicleReport], path: str | os.PathLike[str]) -> int:

@@ -17,6 +17,11 @@ the driver holds only the small per-task results. Outputs go to files under ``ou
 * ``summary.json`` — :class:`~.summary.FleetSummary`;
 * ``work/`` — the working copy of the archive (deleted unless ``keep_work``).
 
+``out_dir`` must be new, empty or the directory of an earlier fleet run (it holds
+``summary.json``; its events and positions are replaced): anything else is refused with
+:class:`~antikol.errors.UsageError`. When it lies inside an archive directory, it is not
+read as partitions.
+
 A task that still fails after its retries is reported in the summary with its partition
 and error (``FleetSummary.failures``), never silently skipped; a failed vehicle-day is
 left out of the analysis of its day, so the run is then incomplete.
@@ -33,19 +38,21 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from antikol.errors import AntikolError
+from antikol.errors import AntikolError, UsageError
 from antikol.evaluation.fleet.archive import find_partitions
 from antikol.evaluation.fleet.stages import (
     FleetConfig,
     IngestResult,
     PositionResult,
     WindowResult,
+    _check_count,
     analyse_window,
     ingest_partition,
     load_map_cached,
     position_vehicles,
 )
 from antikol.evaluation.fleet.summary import FleetSummary, PartitionFailure, merge_hot_spots
+from trackmap.errors import TrackMapError
 
 __all__ = ["replay_archive", "replay_archive_local"]
 
@@ -136,11 +143,50 @@ def replay_archive(
         Local cluster: silence Dask's own log lines (a failed task is still logged here,
         once, and reported in the summary).
     """
+    _check_count("retries", retries, minimum=0)
+    dask_log = logging.getLogger("distributed")
+    level = dask_log.level
+    if quiet:
+        dask_log.setLevel(logging.ERROR)
+    try:
+        return _on_cluster(
+            paths,
+            out_dir,
+            config,
+            client=client,
+            scheduler=scheduler,
+            n_workers=n_workers,
+            processes=processes,
+            retries=retries,
+            progress=progress,
+            dashboard=dashboard,
+            on_client=on_client,
+            keep_work=keep_work,
+            quiet=quiet,
+        )
+    finally:
+        dask_log.setLevel(level)  # quiet for this run only
+
+
+def _on_cluster(
+    paths: Sequence[str | os.PathLike[str]],
+    out_dir: str | os.PathLike[str],
+    config: FleetConfig,
+    *,
+    client: Any,
+    scheduler: str | None,
+    n_workers: int,
+    processes: bool,
+    retries: int,
+    progress: bool,
+    dashboard: bool,
+    on_client: Callable[[Any], None] | None,
+    keep_work: bool,
+    quiet: bool,
+) -> FleetSummary:
     from dask.distributed import Client, LocalCluster, as_completed
     from dask.distributed import progress as dask_progress
 
-    if quiet:
-        logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = None
     own_client = client is None
     if client is None:
@@ -191,7 +237,9 @@ def replay_archive(
 def _failure(stage: str, name: str, exc: BaseException | None) -> PartitionFailure:
     text = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
     logger.error("%s task %s failed: %s", stage, name, text)
-    return PartitionFailure(stage, name, text, isinstance(exc, (AntikolError, OSError)))
+    return PartitionFailure(
+        stage, name, text, isinstance(exc, (AntikolError, TrackMapError, OSError))
+    )
 
 
 def _pipeline(
@@ -203,8 +251,16 @@ def _pipeline(
     keep_work: bool,
 ) -> FleetSummary:
     started = time.perf_counter()
-    files = find_partitions(paths)
     out = Path(out_dir)
+    if out.is_dir() and any(out.iterdir()) and not (out / "summary.json").is_file():
+        raise UsageError(
+            f"{out}: the output directory is not empty and holds no summary.json of an "
+            "earlier fleet run; give an empty or new directory"
+        )
+    files = find_partitions(paths, exclude=[out])
+    # a missing or broken map is the user's input error, raised here at once (not a
+    # failure of every partition); workers load it again from the same spec
+    load_map_cached(config.map_spec)
     for sub in ("events", "positions"):
         if (out / sub).exists():
             shutil.rmtree(out / sub)
@@ -252,8 +308,8 @@ def _pipeline(
     keys = sorted({key for p in parts for key in p.windows})
     win_tasks: list[Task] = []
     for d, w, cx, cy in keys:
-        lo, _ = config.bounds(d, w)
-        first = config.window_of(lo - round(config.warmup_s / config.cycle_s) - 1)
+        # the task reads reports from its warm-up's first cycle (and one before)
+        first = config.window_of(config.warmup_start(d, w) - 1)
         needed = {(d, ww) for ww in range(first, w + 1)}
         wfiles = [f for f, ws in windows_of_file.items() if ws & needed]
         win_tasks.append(

@@ -63,6 +63,7 @@ import numpy as np
 from antikol.analysis import braking
 from antikol.analysis.analyser import Analyser
 from antikol.analysis.assessment import Assessment
+from antikol.analysis.geometry import geodesic_inverse
 from antikol.analysis.profiles import load_profile
 from antikol.errors import InvalidArgumentError
 from antikol.evaluation.fleet.archive import (
@@ -175,20 +176,13 @@ class FleetConfig:
     group: int = 8
 
     def __post_init__(self) -> None:
-        for name in (
-            "cycle_s",
-            "window_s",
-            "region_m",
-            "day_s",
-            "hotspot_m",
-            "max_speed_mps",
-            "group",
-        ):
-            v = getattr(self, name)
-            if not v > 0:
-                raise InvalidArgumentError(name, v, "must be > 0")
-        if self.warmup_s < 0:
-            raise InvalidArgumentError("warmup_s", self.warmup_s, "must be >= 0")
+        for name in ("cycle_s", "window_s", "day_s", "hotspot_m", "max_speed_mps"):
+            _check_real(name, getattr(self, name), lo=0.0, strict=True)
+        _check_real("warmup_s", self.warmup_s, lo=0.0)
+        _check_real("margin_m", self.margin_m, lo=0.0)
+        _check_real("day_offset_s", self.day_offset_s)
+        _check_real("region_m", self.region_m, lo=0.0, strict=True, allow_inf=True)
+        _check_count("group", self.group, minimum=1)
         if abs(self.window_s / self.cycle_s - round(self.window_s / self.cycle_s)) > 1e-9:
             raise InvalidArgumentError("window_s", self.window_s, "must be a multiple of cycle_s")
         if self.margin_m < self.interaction_reach_m():
@@ -234,6 +228,13 @@ class FleetConfig:
         lo, hi = window * self.window_cycles, (window + 1) * self.window_cycles
         return max(lo, self.first_cycle(day)), min(hi, self.first_cycle(day + 1))
 
+    def warmup_start(self, day: int, window: int) -> int:
+        """The first cycle a window's task replays: ``warmup_s`` before the window's
+        first cycle (rounded up to whole cycles), never before the day's first cycle."""
+        lo, _ = self.bounds(day, window)
+        warm = lo - math.ceil(self.warmup_s / self.cycle_s - 1e-9)
+        return max(warm, self.first_cycle(day))
+
     def cell_of(self, x: Any, y: Any) -> tuple[Any, Any]:
         """Region indices of local coordinates (arrays or scalars)."""
         if math.isinf(self.region_m):
@@ -242,6 +243,32 @@ class FleetConfig:
             np.floor(np.asarray(x) / self.region_m).astype(np.int64),
             np.floor(np.asarray(y) / self.region_m).astype(np.int64),
         )
+
+
+def _check_real(
+    name: str,
+    value: Any,
+    *,
+    lo: float = -math.inf,
+    strict: bool = False,
+    allow_inf: bool = False,
+) -> None:
+    """Refuse a non-number, NaN, an infinity (unless ``allow_inf``: +inf) or a value
+    below ``lo`` (at ``lo`` too when ``strict``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InvalidArgumentError(name, value, "must be a number")
+    if math.isnan(value) or value == -math.inf or (value == math.inf and not allow_inf):
+        raise InvalidArgumentError(name, value, "must be finite")
+    if value < lo or (strict and value == lo):
+        raise InvalidArgumentError(name, value, f"must be {'>' if strict else '>='} {lo:g}")
+
+
+def _check_count(name: str, value: Any, *, minimum: int) -> None:
+    """Refuse anything but an int (not a bool) of at least ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InvalidArgumentError(name, value, "must be an integer")
+    if value < minimum:
+        raise InvalidArgumentError(name, value, f"must be >= {minimum}")
 
 
 def _local_xy(net: Any, reports: Sequence[VehicleReport]) -> tuple[Any, Any]:
@@ -403,27 +430,29 @@ def position_vehicles(
             mem_t = track.memory(vid) if track is not None else (None, None)
             rows[vid].append(CycleRecord(vid, k, pos, mem_t, mem_s))
         k += 1
+    own_reports: dict[str, list[VehicleReport]] = defaultdict(list)
+    for r in reports:  # in time order, as read
+        own_reports[r.vehicle_id].append(r)
     out = []
     for vid in vehicle_ids:
         path = positions_path(out_dir, day, vid)
         path.parent.mkdir(parents=True, exist_ok=True)
         write_positions(rows[vid], path)
-        own = [r for r in reports if r.vehicle_id == vid]
+        own = own_reports.get(vid, [])
         out.append(PositionResult(day, vid, str(path), len(own), len(rows[vid]), _vehicle_km(own)))
     return out
 
 
 def _vehicle_km(reports: Sequence[VehicleReport]) -> float:
+    """Distance between successive fixes at most 10 s apart (and at most 100 m/s), on
+    the WGS84 ellipsoid, km."""
     if len(reports) < 2:
         return 0.0
-    lat = np.radians([r.lat for r in reports])
-    lon = np.radians([r.lon for r in reports])
-    t = np.array([r.t for r in reports])
-    a = (
-        np.sin(np.diff(lat) / 2) ** 2
-        + np.cos(lat[:-1]) * np.cos(lat[1:]) * np.sin(np.diff(lon) / 2) ** 2
-    )
-    d = 2 * 6_371_008.8 * np.arcsin(np.sqrt(np.clip(a, 0.0, 1.0)))
+    lat = np.array([r.lat for r in reports], dtype=float)
+    lon = np.array([r.lon for r in reports], dtype=float)
+    t = np.array([r.t for r in reports], dtype=float)
+    d, _ = geodesic_inverse(lat[:-1], lon[:-1], lat[1:], lon[1:])
+    d = np.asarray(d, dtype=float)
     dt = np.diff(t)
     ok = (dt > 0) & (dt <= 10.0) & (d <= 100.0 * np.maximum(dt, 1e-9))
     return float(np.sum(d[ok]) / 1000.0)
@@ -494,8 +523,7 @@ def analyse_window(
     """
     c = config.cycle_s
     lo, hi = config.bounds(day, window)
-    warm = lo - math.ceil(config.warmup_s / c - 1e-9)
-    warm = max(warm, config.first_cycle(day))
+    warm = config.warmup_start(day, window)
     net = load_map_cached(config.map_spec)
     reports = [
         r

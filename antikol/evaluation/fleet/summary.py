@@ -10,6 +10,7 @@ say no more; on simulated traffic :mod:`antikol.evaluation.scoring` scores both.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections import Counter
 from collections.abc import Sequence
@@ -126,11 +127,13 @@ class FleetSummary:
         return {k: (n / km if km > 0 else float("nan")) for k, n in sorted(counts.items())}
 
     def to_json(self, path: str | os.PathLike[str]) -> Path:
-        """Write the summary as JSON."""
+        """Write the summary as JSON (a rate that is not a number, with no vehicle-km,
+        is written as null)."""
         p = Path(path)
         data = asdict(self)
         data["per_vehicle_km"] = {a: self.per_vehicle_km(a) for a in self.alarms}
-        p.write_text(json.dumps(data, indent=2, default=str), encoding="utf-8")
+        text = json.dumps(_finite(data), indent=2, default=str, allow_nan=False)
+        p.write_text(text, encoding="utf-8")
         return p
 
     def lines(self) -> list[str]:
@@ -162,6 +165,17 @@ class FleetSummary:
         for f in self.failures:
             out.append(f"FAILED {f.stage} {f.name}: {f.error}")
         return out
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinite float (in dicts, lists, tuples) made None."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def merge_hot_spots(
@@ -216,15 +230,13 @@ def hotspot_figure(summary: FleetSummary, net: Any, path: str | os.PathLike[str]
 
 
 def hotspot_html(summary: FleetSummary, net: Any, path: str | os.PathLike[str]) -> Path:
-    """An HTML map (folium, no tiles: it makes no network request) of the hot spots."""
+    """A self-contained HTML map of the hot spots over the track map (no tiles, Leaflet
+    inline: the page makes no network request)."""
     import folium
 
-    lon0, lat0 = net.to_lonlat(*_centre(net))
-    m = folium.Map(location=[float(lat0), float(lon0)], zoom_start=13, tiles=None)
-    for edge in net.edges:
-        xs, ys = edge.geometry.xy
-        lons, lats = net.to_lonlat(list(xs), list(ys))
-        folium.PolyLine(list(zip(lats, lons, strict=True)), color="#777", weight=2).add_to(m)
+    from trackmap.plot_html import html_map, save_html
+
+    fmap = html_map(net, tiles=None, title="False-alarm candidates of the sector rule")
     top = summary.hot_spots[0].cycles if summary.hot_spots else 1
     for h in summary.hot_spots:
         why = ", ".join(f"{k}: {v}" for k, v in sorted(h.reasons.items()))
@@ -234,16 +246,5 @@ def hotspot_html(summary: FleetSummary, net: Any, path: str | os.PathLike[str]) 
             color="#c0392b",
             fill=True,
             popup=f"{h.cycles} vehicle-cycles ({why})",
-        ).add_to(m)
-    p = Path(path)
-    m.save(str(p))
-    return p
-
-
-def _centre(net: Any) -> tuple[float, float]:
-    xs, ys = [], []
-    for edge in net.edges:
-        b = edge.geometry.bounds
-        xs += [b[0], b[2]]
-        ys += [b[1], b[3]]
-    return (min(xs) + max(xs)) / 2, (min(ys) + max(ys)) / 2
+        ).add_to(fmap)
+    return save_html(fmap, path)
