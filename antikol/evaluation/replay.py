@@ -16,14 +16,23 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from antikol.analysis.analyser import Analyser
-from antikol.analysis.assessment import Assessment
+from antikol.analysis.assessment import Assessment, Threat
 from antikol.errors import InputFileError, InvalidArgumentError
 from antikol.ingest.replaylog import CsvScan, ReplayLog, stream_replay_csv
 from antikol.report import VehicleReport
 
-__all__ = ["EVENT_COLUMNS", "EventWriter", "ReplaySummary", "StreamedLog", "cycles", "replay"]
+__all__ = [
+    "EVENT_COLUMNS",
+    "EventWriter",
+    "ReplaySummary",
+    "StreamedLog",
+    "cycles",
+    "event_values",
+    "replay",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -40,6 +49,24 @@ EVENT_COLUMNS = (
     "ttc_s",
     "probability",
 )
+
+
+def event_values(a: Assessment, th: Threat) -> dict[str, Any]:
+    """One threat of an assessment as the values of :data:`EVENT_COLUMNS` (SI units; None
+    where the threat has no value)."""
+    return {
+        "t": a.t,
+        "own_id": a.own_id,
+        "other_id": th.vehicle_id,
+        "level": th.level,
+        "kind": th.kind,
+        "distance_m": th.distance_m,
+        "method": th.method,
+        "zone": th.zone,
+        "closing_speed_mps": th.closing_speed_mps,
+        "ttc_s": th.ttc_s,
+        "probability": th.probability,
+    }
 
 
 def cycles(
@@ -221,6 +248,18 @@ def replay(
     return summary
 
 
+#: Decimals of the numeric event columns in the CSV (seconds to ms, metres to cm).
+_CSV_DECIMALS = {"t": 3, "distance_m": 2, "closing_speed_mps": 2, "ttc_s": 2, "probability": 3}
+
+
+def _csv_cell(value: Any, decimals: int | None = None) -> str:
+    if value is None:
+        return ""
+    if decimals is not None:
+        return f"{value:.{decimals}f}"
+    return str(value)
+
+
 class EventWriter:
     """Writes one CSV row per threat of every assessment (see :data:`EVENT_COLUMNS`)."""
 
@@ -239,19 +278,7 @@ class EventWriter:
     def __call__(self, a: Assessment) -> None:
         for th in a.threats:
             self._w.writerow(
-                [
-                    f"{a.t:.3f}",
-                    a.own_id,
-                    th.vehicle_id,
-                    th.level,
-                    th.kind,
-                    f"{th.distance_m:.2f}",
-                    th.method,
-                    th.zone or "",
-                    f"{th.closing_speed_mps:.2f}",
-                    "" if th.ttc_s is None else f"{th.ttc_s:.2f}",
-                    "" if th.probability is None else f"{th.probability:.3f}",
-                ]
+                [_csv_cell(v, _CSV_DECIMALS.get(k)) for k, v in event_values(a, th).items()]
             )
             self.rows += 1
 

@@ -78,7 +78,7 @@ from antikol.evaluation.fleet.positions import (
     read_positions,
     write_positions,
 )
-from antikol.evaluation.replay import cycles
+from antikol.evaluation.replay import EVENT_COLUMNS, cycles, event_values
 from antikol.positioning.config import PositioningConfig
 from antikol.report import VehicleReport
 from antikol.thresholds import EXPIRY_S
@@ -98,22 +98,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 #: Columns of the events Parquet files (one row per threat per own vehicle per cycle).
-EVENT_FIELDS: tuple[str, ...] = (
-    "analyser",
-    "t",
-    "own_id",
-    "other_id",
-    "level",
-    "kind",
-    "distance_m",
-    "method",
-    "zone",
-    "closing_speed_mps",
-    "ttc_s",
-    "probability",
-    "lon",
-    "lat",
-)
+EVENT_FIELDS: tuple[str, ...] = ("analyser", *EVENT_COLUMNS, "lon", "lat")
 _ALARM = ("warning", "emergency")
 _MAPS: dict[str, Any] = {}
 
@@ -644,22 +629,7 @@ def _hotspot_cell(net: Any, lon: float, lat: float, size_m: float) -> tuple[int,
 
 
 def _event_row(name: str, a: Assessment, th: Any, lon: float, lat: float) -> dict[str, Any]:
-    return {
-        "analyser": name,
-        "t": a.t,
-        "own_id": a.own_id,
-        "other_id": th.vehicle_id,
-        "level": th.level,
-        "kind": th.kind,
-        "distance_m": th.distance_m,
-        "method": th.method,
-        "zone": th.zone,
-        "closing_speed_mps": th.closing_speed_mps,
-        "ttc_s": th.ttc_s,
-        "probability": th.probability,
-        "lon": lon,
-        "lat": lat,
-    }
+    return {"analyser": name, **event_values(a, th), "lon": lon, "lat": lat}
 
 
 def _write_events(
