@@ -84,3 +84,13 @@ def test_an_attacker_process_changes_nothing(tmp_path: Path) -> None:
         assert rejected <= sent <= rejected + unit.stats["kernel_dropped"], unit.stats
     assert result.lamp_mismatches() == dict.fromkeys(result.units, 0), result.summary()
     assert all(w["lost"] == 0 for w in result.warnings().values())
+
+
+@pytest.mark.parametrize("bad", ["L", "L:10", "L:x:20", "L:20:10", ":1:2", "L:nan:5"])
+def test_a_malformed_blackout_is_a_usage_error_not_a_traceback(bad, capsys):
+    from antikol.onboard.harness import main as harness_main
+
+    with pytest.raises(SystemExit) as exc:
+        harness_main(["--blackout", bad])
+    assert exc.value.code == 2
+    assert "SENDER:START:END" in capsys.readouterr().err

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import os
 import signal
 import socket
@@ -371,6 +372,19 @@ def run_harness(cfg: HarnessConfig) -> HarnessResult:
     return HarnessResult(cfg, units, reference, genuine, dict(relay.stats) if relay else {}, sent)
 
 
+def _blackout(text: str) -> tuple[str, float, float]:
+    """``SENDER:START:END`` as (sender, start s, end s), or an argparse error."""
+    who, _, span = text.partition(":")
+    a, _, b = span.partition(":")
+    try:
+        start, end = float(a), float(b)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not SENDER:START:END") from None
+    if not who or not (math.isfinite(start) and math.isfinite(end) and start < end):
+        raise argparse.ArgumentTypeError(f"{text!r} is not SENDER:START:END with START < END")
+    return who, start, end
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m antikol.onboard.harness``: run once and print the figures."""
     p = argparse.ArgumentParser(prog="python -m antikol.onboard.harness", description=__doc__)
@@ -386,16 +400,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--duplicate", type=float, default=0.0)
     p.add_argument("--reorder", type=float, default=0.0)
     p.add_argument("--corrupt", type=float, default=0.0)
-    p.add_argument("--blackout", default="", help="SENDER:START:END in report seconds")
+    p.add_argument(
+        "--blackout",
+        type=_blackout,
+        default=None,
+        help="SENDER:START:END in report seconds (e.g. L:10:20)",
+    )
     p.add_argument("--attack-count", type=int, default=0, help="frames per kind per unit")
     p.add_argument("--attack-rate", type=float, default=4000.0)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--startup", type=float, default=10.0)
     args = p.parse_args(argv)
     blackouts: tuple[tuple[str, float, float], ...] = ()
-    if args.blackout:
-        who, a, b = args.blackout.split(":")
-        blackouts = ((who, float(a), float(b)),)
+    if args.blackout is not None:
+        blackouts = (args.blackout,)
     impaired = any((args.loss, args.delay, args.jitter, args.duplicate, args.reorder))
     impairment = (
         Impairment(
