@@ -144,6 +144,7 @@ __all__ = [
     "format_gga",
     "format_rmc",
     "format_vtg",
+    "list_nmea_files",
     "read_nmea_directory",
     "read_nmea_file",
 ]
@@ -711,6 +712,27 @@ def read_nmea_file(
     return reports, reader.stats
 
 
+def list_nmea_files(path: str | os.PathLike[str]) -> list[Path]:
+    """The files of a directory that may be NMEA logs, sorted by name.
+
+    Names ending in ``.nmea``, ``.txt`` or ``.log`` (any case), not recursively.
+
+    Raises
+    ------
+    InputFileError
+        ``path`` is not a readable directory.
+    """
+    directory = Path(path)
+    if not directory.is_dir():
+        raise InputFileError(f"not a directory of NMEA files: {str(directory)!r}")
+    try:
+        return sorted(
+            p for p in directory.iterdir() if p.suffix.lower() in FILE_SUFFIXES and p.is_file()
+        )
+    except OSError as err:
+        raise InputFileError(f"cannot list directory {str(directory)!r}: {err}") from err
+
+
 def read_nmea_directory(
     path: str | os.PathLike[str],
 ) -> tuple[dict[str, list[VehicleReport]], dict[str, NmeaStats]]:
@@ -740,14 +762,7 @@ def read_nmea_directory(
         A file name is not a valid vehicle identifier.
     """
     directory = Path(path)
-    if not directory.is_dir():
-        raise InputFileError(f"not a directory of NMEA files: {str(directory)!r}")
-    try:
-        files = sorted(
-            p for p in directory.iterdir() if p.suffix.lower() in FILE_SUFFIXES and p.is_file()
-        )
-    except OSError as err:
-        raise InputFileError(f"cannot list directory {str(directory)!r}: {err}") from err
+    files = list_nmea_files(directory)
     if not files:
         raise InputFileError(
             f"no NMEA files ({', '.join('*' + s for s in FILE_SUFFIXES)}) in {str(directory)!r}"

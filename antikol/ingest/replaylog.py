@@ -551,17 +551,10 @@ def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
         ``path`` is not a readable directory, holds no NMEA log, or holds two logs of one
         vehicle (``t1.nmea`` and ``t1.log``).
     """
-    from antikol.ingest.nmea import FILE_SUFFIXES, read_nmea_file
+    from antikol.ingest.nmea import FILE_SUFFIXES, list_nmea_files, read_nmea_file
 
     directory = Path(path)
-    if not directory.is_dir():
-        raise InputFileError(f"not a directory of NMEA files: {str(directory)!r}")
-    try:
-        files = sorted(
-            p for p in directory.iterdir() if p.suffix.lower() in FILE_SUFFIXES and p.is_file()
-        )
-    except OSError as err:
-        raise InputFileError(f"cannot list directory {str(directory)!r}: {err}") from err
+    files = list_nmea_files(directory)
     log = ReplayLog([], [], str(path))
     by_vehicle: dict[str, Path] = {}
     for file in files:
