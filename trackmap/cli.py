@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 import time
 import traceback
@@ -36,6 +37,10 @@ __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_OK",
     "main",
+    "non_negative_float",
+    "non_negative_int",
+    "positive_float",
+    "positive_int",
 ]
 
 EXIT_OK = 0
@@ -46,19 +51,41 @@ EXIT_INTERRUPTED = 130
 _MAX_MESSAGE = 2000
 
 
-def _positive(text: str) -> float:
-    """argparse type: a finite positive number."""
+def positive_float(text: str) -> float:
+    """argparse type: a finite number above 0."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text[:40]!r}") from None
-    if not 0 < value < float("inf"):
+    if not 0 < value < math.inf:
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text[:40]!r}")
     return value
 
 
-def _count(text: str) -> int:
-    """argparse type: a non-negative integer."""
+def positive_int(text: str) -> int:
+    """argparse type: an integer above 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text[:40]!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be 1 or more, got {value}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """argparse type: a finite number of 0 or more."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text[:40]!r}") from None
+    if not 0 <= value < math.inf:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text[:40]!r}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: an integer of 0 or more."""
     try:
         value = int(text)
     except ValueError:
@@ -89,7 +116,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--driving-side", choices=("right", "left"), default="right")
     b.add_argument(
         "--max-deflection",
-        type=_positive,
+        type=positive_float,
         default=35.0,
         metavar="DEG",
         help="largest change of direction through a switch or crossing (default 35)",
@@ -105,10 +132,12 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="report data problems; exit status 1 if errors are found")
     c.add_argument("map", type=Path)
     c.add_argument("--json", action="store_true", help="machine-readable output")
-    c.add_argument("--limit", type=_count, default=20, help="findings listed per code (default 20)")
+    c.add_argument(
+        "--limit", type=non_negative_int, default=20, help="findings listed per code (default 20)"
+    )
     c.add_argument(
         "--max-edge-m",
-        type=_positive,
+        type=positive_float,
         default=None,
         metavar="M",
         help="edges longer than this are errors (default by kind: tram 5000, light_rail and "
