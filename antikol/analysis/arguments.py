@@ -34,7 +34,10 @@ def finite(value: float, name: str) -> float:
     """A real, finite number as a float."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InvalidArgumentError(name, value, "must be a real number")
-    out = float(value)
+    try:
+        out = float(value)
+    except OverflowError:  # an int beyond the range of a double
+        raise InvalidArgumentError(name, value, "too large for a double") from None
     if not math.isfinite(out):
         raise InvalidArgumentError(name, value, "must be finite")
     return out
