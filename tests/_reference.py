@@ -66,6 +66,23 @@ def replay(reports) -> dict[str, list]:
     return out
 
 
+def replay_on_board(reports, own_id: str) -> dict[str, list]:
+    """The same reports through an on-board analyser of ``own_id``: its assessments."""
+    net = trackmap.load_default()
+    an = Analyser(track_map=net, own_id=own_id)
+    out: dict[str, list] = {}
+    by_t: dict[float, list] = {}
+    for r in reports:
+        by_t.setdefault(r.t, []).append(r)
+    for t in sorted(by_t):
+        batch = by_t[t]
+        for r in batch:
+            an.update(r)
+        if any(r.vehicle_id == own_id for r in batch):
+            out[f"{own_id}@{t!r}"] = assessment_record(an.assess())
+    return out
+
+
 def load(path: Path) -> tuple[list[VehicleReport], dict[str, list]]:
     """The recorded reports and assessments."""
     doc = json.loads(path.read_text(encoding="utf-8"))

@@ -525,7 +525,7 @@ class Analyser:
             plain = [self._sector_threat(own, self._report(h.vehicle_id), h) for h in hits]
             return self._assessment(vid, now, plain, [], "sector")
         cycle = self._refresh(now)
-        own_view = cycle.views[vid]
+        own_view = cycle.expand(vid)
         threats: list[Threat] = []
         suppressed: list[Suppressed] = []
         seen: set[str] = set()
@@ -545,6 +545,8 @@ class Analyser:
             if ov is None or now - ov.report.t > self.expiry_s:
                 continue
             hit = hit_by_id.get(ovid)
+            if hit is not None:
+                ov = cycle.expand(ovid)  # its paths tell why a sector hit is suppressed
             if not ov.matched:
                 if hit is not None:
                     state = ov.position.status if ov.position is not None else "unmatched"
@@ -576,7 +578,7 @@ class Analyser:
         vid = own_id if own_id is not None else self.own_id
         if vid is None or self.track_map is None or vid not in self.table:
             return []
-        view = self._refresh(self.table.clock if t is None else float(t)).views[vid]
+        view = self._refresh(self.table.clock if t is None else float(t)).expand(vid)
         if not view.matched:
             return []
         out = []
@@ -757,6 +759,7 @@ class Analyser:
             self._view_settings,
             now,
             self._moving,
+            owners=None if self.own_id is None else (self.own_id,),
         )
         self._cycle, self._cycle_version = cycle, self._version
         return cycle
@@ -773,6 +776,10 @@ class Analyser:
             self._outcomes_of = (cycle, done)
         if vid not in done:
             owners = None if self.own_id is None else (vid,)
+            if owners is not None and vid != self.own_id:
+                # the views were built for the own vehicle's reach: another owner needs all
+                for other in cycle.deferred:
+                    cycle.expand(other)
             self._outcomes.update(self._pairs.evaluate(cycle, self._traction, owners))
             done.update(cycle.views if owners is None else owners)
         return self._outcomes.get(vid, {})

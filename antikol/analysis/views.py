@@ -5,21 +5,29 @@ positioning: for every vehicle its speed, ends, braking distances, look-ahead an
 hypotheses worth evaluating with their paths ahead (one path per zone, each with the
 probability of the vehicle taking it). The pairs are found and judged from these views by
 :mod:`antikol.analysis.pairs`.
+
+Walking the paths ahead is the dear part, and it is only needed for vehicles that can
+interact: two vehicles whose hypotheses are farther apart in a straight line than both
+look-aheads plus both bodies, their uncertainty and a slack can share neither track nor
+conflict point within either look-ahead (a path along the track is never shorter than the
+straight line). The paths of the others are walked on demand (:meth:`CycleViews.expand`),
+so the cost of a cycle grows with the vehicles that can interact, not with the table.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from antikol.analysis import braking
 from antikol.analysis.branches import BranchModel, BranchSettings
 from antikol.analysis.ends import VehicleEnds, vehicle_ends
 from antikol.analysis.profiles import BrakingProfile
-from antikol.positioning.records import TrackPosition
+from antikol.positioning.records import Hypothesis, TrackPosition
 from antikol.report import VehicleReport
 from trackmap import NodePass, Path, TrackMap
 
@@ -147,13 +155,51 @@ class VehicleView:
         return self.position is not None and self.position.matched
 
 
+#: Added to the sum of two vehicles' reaches before they are taken to be out of reach, m.
+REACH_SLACK_M = 100.0
+
+
+@dataclass(frozen=True, slots=True)
+class _Chosen:
+    """A hypothesis chosen for evaluation, where its paths start."""
+
+    edge_id: int
+    offset_m: float
+    direction: int
+    hypothesis: Hypothesis
+
+
 @dataclass(slots=True)
 class CycleViews:
-    """Views of every vehicle at one time."""
+    """Views of every vehicle at one time.
+
+    Vehicles out of every owner's reach have no paths until :meth:`expand` is asked for
+    them.
+    """
 
     t: float
     views: dict[str, VehicleView] = field(default_factory=dict)
     _passing: dict[int, set[str]] | None = None
+    _pending: dict[str, list[_Chosen]] = field(default_factory=dict)
+    _net: TrackMap | None = None
+    _branches: BranchModel | None = None
+    _settings: ViewSettings | None = None
+
+    def expand(self, vehicle_id: str) -> VehicleView:
+        """The view of a vehicle with its hypotheses and paths (walked now if they were
+        deferred)."""
+        view = self.views[vehicle_id]
+        chosen = self._pending.pop(vehicle_id, None)
+        net, branches, settings = self._net, self._branches, self._settings
+        if chosen is not None and net is not None and branches is not None and settings:
+            view.hyps = _hypotheses(net, branches, chosen, view, settings)
+            self._passing = None
+        return view
+
+    @property
+    def deferred(self) -> frozenset[str]:
+        """The matched vehicles whose paths have not been walked (out of reach)."""
+        return frozenset(self._pending)
 
     def passing(self, conflict_id: int) -> set[str]:
         """The vehicles whose paths pass a conflict point (an index built on first use)."""
@@ -176,6 +222,7 @@ def build_views(
     settings: ViewSettings,
     t: float,
     moving: Mapping[str, bool],
+    owners: Collection[str] | None = None,
 ) -> CycleViews:
     """Build the views and indices of one analysis time.
 
@@ -195,12 +242,18 @@ def build_views(
     moving : mapping of str to bool
         Whether each vehicle moves; a standing vehicle's speed is taken as 0 (its speed over
         ground is receiver noise).
+    owners : collection of str, optional
+        The vehicles that will be assessed (on board: the own vehicle). Their paths are
+        always walked, and those of the vehicles within their reach; default: every
+        vehicle is an owner, and the paths of vehicles without any other in reach wait for
+        :meth:`CycleViews.expand`.
 
     Returns
     -------
     CycleViews
     """
-    cycle = CycleViews(t)
+    branches = BranchModel.for_map(net, settings.branches)
+    cycle = CycleViews(t, _net=net, _branches=branches, _settings=settings)
     speeds = np.array(
         [
             (pos.speed_mps if pos is not None and pos.matched else r.speed_mps)
@@ -211,7 +264,7 @@ def build_views(
         dtype=float,
     )
     warn, emerg, horizon = _distances(reports, speeds, profiles, default_profile, settings)
-    branches = BranchModel.for_map(net, settings.branches)
+    chosen: dict[str, list[_Chosen]] = {}
     for k, (report, pos) in enumerate(zip(reports, positions, strict=True)):
         vid = report.vehicle_id
         prof = profiles.get(vid, default_profile)
@@ -228,9 +281,74 @@ def build_views(
             horizon_m=float(horizon[k]),
         )
         if pos is not None and pos.matched:
-            view.hyps = _hypotheses(net, branches, pos, view, settings)
+            chosen[vid] = _choose(pos, settings)
         cycle.views[vid] = view
+    cycle._pending = chosen
+    for vid in _in_reach(net, cycle.views, chosen, owners):
+        cycle.expand(vid)
     return cycle
+
+
+def _choose(pos: TrackPosition, settings: ViewSettings) -> list[_Chosen]:
+    """The hypotheses of a position worth evaluating."""
+    picked = [h for h in pos.hypotheses if h.probability >= settings.min_hypothesis_probability]
+    picked = picked[: settings.max_hypotheses] or list(pos.hypotheses[:1])
+    out = []
+    for k, h in enumerate(picked):
+        if k == 0 and pos.edge_id is not None and pos.offset_m is not None:
+            # the reported (filtered, possibly dead-reckoned) estimate of the first one
+            out.append(_Chosen(pos.edge_id, pos.offset_m, pos.direction or h.direction, h))
+        else:
+            out.append(_Chosen(h.edge_id, h.offset_m, h.direction, h))
+    return out
+
+
+def _reach_m(view: VehicleView) -> float:
+    """How far from its antenna a vehicle can meet another's body or path, m (the slack
+    shared by a pair is added once, half from each)."""
+    ends = abs(view.ends.front_m) + abs(view.ends.rear_m)
+    return view.horizon_m + ends + 4.0 * view.sigma_m + 0.5 * REACH_SLACK_M
+
+
+def _in_reach(
+    net: TrackMap,
+    views: Mapping[str, VehicleView],
+    chosen: Mapping[str, list[_Chosen]],
+    owners: Collection[str] | None,
+) -> set[str]:
+    """The vehicles whose paths a cycle needs: the owners (when given) and every vehicle
+    with an owner within reach."""
+    ids = list(chosen)
+    if not ids:
+        return set()
+    vehicle = np.repeat(np.arange(len(ids)), [len(chosen[v]) for v in ids])
+    edges = [c.edge_id for v in ids for c in chosen[v]]
+    offsets = [c.offset_m for v in ids for c in chosen[v]]
+    x, y = net.points_at(edges, offsets)
+    reach = np.array([_reach_m(views[v]) for v in ids])[vehicle]
+    is_owner = np.ones(len(ids), dtype=bool)
+    if owners is not None:
+        wanted = set(owners)
+        is_owner = np.array([v in wanted for v in ids], dtype=bool)
+    needed = {v for v, own in zip(ids, is_owner.tolist(), strict=True) if own} if owners else set()
+    xy = np.column_stack([x, y])
+    if is_owner.sum() <= 8:
+        rows = np.flatnonzero(is_owner[vehicle])
+        dist = np.hypot(xy[rows, None, 0] - xy[None, :, 0], xy[rows, None, 1] - xy[None, :, 1])
+        near = dist <= reach[rows, None] + reach[None, :]
+        i, j = np.nonzero(near)
+        a, b = vehicle[rows[i]], vehicle[j]
+    else:
+        pairs = cKDTree(xy).query_pairs(2.0 * float(reach.max()), output_type="ndarray")
+        p, q = pairs[:, 0], pairs[:, 1]
+        d = np.hypot(xy[p, 0] - xy[q, 0], xy[p, 1] - xy[q, 1])
+        keep = d <= reach[p] + reach[q]
+        a, b = vehicle[p[keep]], vehicle[q[keep]]
+        both = is_owner[a] | is_owner[b]
+        a, b = a[both], b[both]
+    distinct = a != b
+    needed.update(ids[k] for k in np.unique(np.concatenate([a[distinct], b[distinct]])).tolist())
+    return needed
 
 
 def _nodes_at(path: Path) -> list[NodePass | None]:
@@ -287,21 +405,15 @@ def _distances(
 def _hypotheses(
     net: TrackMap,
     branches: BranchModel,
-    pos: TrackPosition,
+    chosen: list[_Chosen],
     view: VehicleView,
     settings: ViewSettings,
 ) -> list[HypothesisView]:
-    """The hypotheses of a position worth evaluating, with their paths ahead."""
-    chosen = [h for h in pos.hypotheses if h.probability >= settings.min_hypothesis_probability]
-    chosen = chosen[: settings.max_hypotheses] or list(pos.hypotheses[:1])
-    total = sum(h.probability for h in chosen) or 1.0
+    """The chosen hypotheses of a vehicle with their paths ahead."""
+    total = sum(c.hypothesis.probability for c in chosen) or 1.0
     out = []
-    for k, h in enumerate(chosen):
-        if k == 0 and pos.edge_id is not None and pos.offset_m is not None:
-            # the reported (filtered, possibly dead-reckoned) estimate of the first one
-            edge, off, d = pos.edge_id, pos.offset_m, pos.direction or h.direction
-        else:
-            edge, off, d = h.edge_id, h.offset_m, h.direction
+    for c in chosen:
+        h, edge, off, d = c.hypothesis, c.edge_id, c.offset_m, c.direction
         paths = tuple(
             net.paths_ahead(edge, off, d, view.horizon_m, respect_direction=not h.wrong_way)
         )
