@@ -63,7 +63,8 @@ def main() -> None:
             score = positioning_accuracy(net, sim.run(60.0 * args.minutes))
             results.setdefault(name, []).append(score)
             print(
-                f"| {name} | {seed} | {score.fixes:,} | {100 * score.double_track_right_share:.2f} % "
+                f"| {name} | {seed} | {score.fixes:,} "
+                f"| {100 * score.double_track_right_share:.2f} % "
                 f"| {100 * score.branch_accuracy:.2f} % "
                 f"| {100 * score.confident_wrong_share:.2f} % of {score.confident_fixes:,} "
                 f"| {100 * score.right_way_share:.2f} % "
