@@ -173,3 +173,26 @@ def test_a_turning_loop_is_followed_onto_the_track_it_leads_to():
         wrong = [p for p in after if p.edge_id == 582]
         assert not wrong, f"seed {seed}: {len(wrong)} fixes running wrong way on 582"
         assert all(not p.wrong_way for p in out)
+
+
+def test_a_position_carried_past_a_switch_takes_the_branch_the_hypotheses_hold(tmp_path):
+    # the estimate is moved from the trunk past the switch; without a route it used to take
+    # the straight branch, confident, although the other hypotheses were on the diverging one
+    from antikol.positioning.deadreckoning import advance
+
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    trunk = next(e for e in net.edges if e.way_ids == (1,))
+    branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
+    straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
+    toward_toe = 1  # the trunk is drawn from the south up to the switch
+    start = trunk.length_m - 1.0
+    plain = advance(net, trunk.edge_id, start, toward_toe, 4.0, None, wrong=False)
+    assert plain.edge_id == straight and plain.branch_share == 1.0
+    held = {trunk.edge_id: 0.5, branch: 0.3, straight: 0.2}
+    moved = advance(net, trunk.edge_id, start, toward_toe, 4.0, None, wrong=False, edge_mass=held)
+    assert moved.edge_id == branch
+    assert moved.offset_m == pytest.approx(3.0, abs=0.5)
+    assert moved.branch_share == pytest.approx(0.3 / 0.5)
+    # staying on the edge is no branch decision
+    on_trunk = advance(net, trunk.edge_id, 10.0, toward_toe, 4.0, None, wrong=False, edge_mass=held)
+    assert on_trunk.edge_id == trunk.edge_id and on_trunk.branch_share == 1.0

@@ -4,13 +4,16 @@ A vehicle without a GPS fix but with an odometer is carried along the track by t
 its wheels ran (:func:`dead_reckon`); where the track branches each branch becomes a
 hypothesis of its own and the next fix decides (:func:`carry`). Between reports a vehicle's
 position is moved along its most probable path (:func:`advance`): its planned route, else
-the straightest way (:func:`preferred_path`).
+the branch that the matcher's other hypotheses already hold, else the straightest way
+(:func:`preferred_path`).
 """
 
 from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 
@@ -22,7 +25,7 @@ from antikol.report import VehicleReport
 from antikol.thresholds import MAX_PATHS_SEARCH
 from trackmap import Path, TrackMap
 
-__all__ = ["advance", "carry", "dead_reckon", "preferred_path"]
+__all__ = ["Advanced", "advance", "carry", "dead_reckon", "preferred_path"]
 
 _NEG_INF = -math.inf
 
@@ -121,6 +124,26 @@ def carry(
     f.hg[row, :m] += travelled_m
 
 
+class Advanced(NamedTuple):
+    """A track position moved by :func:`advance`.
+
+    Attributes
+    ----------
+    edge_id, offset_m, direction
+        Where it is now (edge id, m from the edge's start, +1/-1).
+    branch_share : float
+        When the move passed a switch: the share of the other hypotheses' probability
+        beyond the start edge that lies on the path taken (1.0 when no switch was passed or
+        no hypothesis lies beyond). A position carried past a switch is no surer of its
+        branch than the hypotheses are.
+    """
+
+    edge_id: int
+    offset_m: float
+    direction: int
+    branch_share: float = 1.0
+
+
 def advance(
     net: TrackMap,
     edge: int,
@@ -130,14 +153,35 @@ def advance(
     report: VehicleReport | None,
     *,
     wrong: bool,
+    edge_mass: Mapping[int, float] | None = None,
 ) -> tuple[int, float, int]:
-    """Move a track position by a signed distance along its most probable path."""
+    """Move a track position by a signed distance along its most probable path.
+
+    Parameters
+    ----------
+    net : TrackMap
+    edge, offset, direction
+        The start (edge id, m from the edge's start, +1/-1).
+    distance_m : float
+        How far to move, m; a move back stops at the start of the edge.
+    report : VehicleReport or None
+        Its planned route, when it has one, chooses the branch.
+    wrong : bool
+        Running against the permitted direction (physical moves only).
+    edge_mass : mapping of int to float, optional
+        Probability held by other hypotheses on each edge: without a route, the path
+        holding the most of it is taken at a switch (the straightest on a tie).
+
+    Returns
+    -------
+    Advanced
+    """
     if abs(distance_m) < 1e-6:
-        return edge, offset, direction
+        return Advanced(edge, offset, direction)
     length = net.edge_length(edge)
     moved = offset + direction * distance_m
     if 0.0 <= moved <= length:  # the common case: still on the same edge
-        return edge, moved, direction
+        return Advanced(edge, moved, direction)
     if distance_m > 0:
         paths = net.paths_ahead(
             edge,
@@ -148,20 +192,46 @@ def advance(
             max_paths=MAX_PATHS_SEARCH,
         )
         if not paths:
-            return edge, min(max(moved, 0.0), length), direction
-        last = preferred_path(paths, report.route if report is not None else None).steps[-1]
-        return last.edge_id, last.exit_offset_m, last.direction
+            return Advanced(edge, min(max(moved, 0.0), length), direction)
+        route = report.route if report is not None else None
+        taken = preferred_path(paths, route, edge_mass=edge_mass)
+        last = taken.steps[-1]
+        return Advanced(
+            last.edge_id, last.exit_offset_m, last.direction, _share(paths, taken, edge_mass)
+        )
     # behind the start of the edge: the filter lags the matched lineage by a few metres;
     # guessing a branch behind would be worse than stopping at the node
-    return edge, min(max(moved, 0.0), length), direction
+    return Advanced(edge, min(max(moved, 0.0), length), direction)
 
 
-def preferred_path(paths: list[Path], route: tuple[int, ...] | None) -> Path:
-    """The path a vehicle most probably takes: along its route, else the straightest."""
+def _share(paths: list[Path], taken: Path, edge_mass: Mapping[int, float] | None) -> float:
+    if not edge_mass or len(paths) < 2:
+        return 1.0
+    beyond = {e for p in paths for e in p.edges[1:]}
+    everywhere = sum(edge_mass.get(e, 0.0) for e in beyond)
+    if everywhere <= 0.0:
+        return 1.0
+    return sum(edge_mass.get(e, 0.0) for e in set(taken.edges[1:])) / everywhere
+
+
+def preferred_path(
+    paths: list[Path],
+    route: tuple[int, ...] | None,
+    *,
+    edge_mass: Mapping[int, float] | None = None,
+) -> Path:
+    """The path a vehicle most probably takes: along its route, else the one holding the
+    most probability of other hypotheses (``edge_mass``: edge id to probability; the start
+    edge, shared by every path, does not count), else the straightest."""
     if route:
         on_route = set(route)
         scored = [(sum(1 for e in p.edges if e in on_route), p) for p in paths]
         top = max(s for s, _ in scored)
         if top > 1:
             return next(p for s, p in scored if s == top)
+    if edge_mass and len(paths) > 1:
+        held = [sum(edge_mass.get(e, 0.0) for e in set(p.edges[1:])) for p in paths]
+        best = max(held)
+        if best > 0.0:
+            paths = [p for p, m in zip(paths, held, strict=True) if m == best]
     return min(paths, key=lambda p: sum(1 for n in p.nodes if n.choice not in (None, "straight")))

@@ -88,6 +88,14 @@ _LOG_2PI = math.log(2.0 * math.pi)
 _SAME_PLACE_M = 3.0
 
 
+def _edge_mass(hyps: tuple[Hypothesis, ...]) -> dict[int, float]:
+    """Probability held by the hypotheses on each edge."""
+    mass: dict[int, float] = {}
+    for h in hyps:
+        mass[h.edge_id] = mass.get(h.edge_id, 0.0) + h.probability
+    return mass
+
+
 class Positioner:
     """Track-selective positioning of a fleet on one map.
 
@@ -617,7 +625,7 @@ class Positioner:
         s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
         hyps = self._hypotheses(row)
         first = hyps[0]
-        edge, off, direction = advance(
+        moved = advance(
             self.net,
             first.edge_id,
             first.offset_m,
@@ -625,10 +633,12 @@ class Positioner:
             float(s) - self._f.z[row],
             last,
             wrong=first.wrong_way,
+            edge_mass=_edge_mass(hyps),
         )
+        edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
         x, y = self.net.point_at(edge, off)
         lon, lat = self.net.to_lonlat(x, y)
-        place_p = float(self._f.place[row])
+        place_p = float(self._f.place[row]) * moved.branch_share
         age = t - float(self._f.t_fix[row])
         odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
         if math.isfinite(odometer_run):
@@ -693,8 +703,9 @@ class Positioner:
         """Predicted (edge, offset, direction, s, speed, s_std) of a vehicle at ``t``."""
         c = self.config
         s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
-        first = self._hypotheses(row)[0]
-        edge, off, d = advance(
+        hyps = self._hypotheses(row)
+        first = hyps[0]
+        moved = advance(
             self.net,
             first.edge_id,
             first.offset_m,
@@ -702,8 +713,9 @@ class Positioner:
             float(s) - self._f.z[row],
             self._f.last[row],
             wrong=first.wrong_way,
+            edge_mass=_edge_mass(hyps),
         )
-        return edge, off, d, float(s), float(v), float(s_std)
+        return moved.edge_id, moved.offset_m, moved.direction, float(s), float(v), float(s_std)
 
     def pin(
         self, row: int, t: float, edge: int, offset: float, direction: int, s: float, v: float
