@@ -154,7 +154,7 @@ def advance(
     *,
     wrong: bool,
     edge_mass: Mapping[int, float] | None = None,
-) -> tuple[int, float, int]:
+) -> Advanced:
     """Move a track position by a signed distance along its most probable path.
 
     Parameters
