@@ -132,7 +132,7 @@ def test_dask_two_workers_equal_the_single_process_run(local_run, dask_run):
     """Windows of 120 s with a 120 s warm-up and regions of 1 km: the distributed result
     is the single-process one, event for event, and the boundaries were really crossed."""
     (ref, ref_out), (got, got_out) = local_run, dask_run
-    assert got.complete
+    assert got.complete and got.unsettled_alarms == 0  # the warm-up sufficed, and says so
     assert got.tasks["analysis"] > ref.tasks["analysis"] == 1
     a, b = _events(ref_out), _events(got_out)
     assert len(a) > 1000
@@ -291,3 +291,16 @@ def test_importing_antikol_and_the_fleet_package_imports_no_dask():
         "assert not bad, bad"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_a_warm_up_too_short_is_reported(archive, local_run, tmp_path):
+    """With a 1 s warm-up the windowed run loses alarms held across window starts; the
+    run says so instead of passing the difference off as the answer."""
+    short = fl.FleetConfig(map_spec=MAP, window_s=60.0, warmup_s=1.0, region_m=math.inf)
+    summary = fl.replay_archive_local([archive], tmp_path, short)
+    ref_summary, ref_out = local_run
+    differs = _events(tmp_path) != _events(ref_out)
+    assert differs, "the case must really lose something"
+    assert summary.unsettled_alarms > 0
+    assert any("warm-up too short" in line for line in summary.lines())
+    assert ref_summary.unsettled_alarms == 0

@@ -17,6 +17,11 @@ state with three rules:
 The vehicle's lamp is on while any of its pair alarms is on. Every change of state is
 counted (:attr:`AlarmBook.toggles`), so the flicker of a configuration can be measured.
 
+A replay that starts in the middle of traffic cannot know the alarms of pairs already in
+conflict: a pair held (not raised) at its first evaluation is off here but may have been
+on. :meth:`AlarmBook.unsettled` lists the pairs whose state may still depend on what came
+before a given time: not yet clear long enough since for any alarm to be released.
+
 >>> from antikol.analysis.alarms import AlarmBook, AlarmPolicy
 >>> book = AlarmBook(AlarmPolicy(min_on_s=3.0))
 >>> book.step("A", "B", 0.0, raise_now=True, hold=False)
@@ -69,6 +74,9 @@ class PairAlarm:
     since: float = 0.0
     last_seen: float = 0.0
     last_step: float = float("-inf")
+    first_step: float = float("nan")
+    last_raise: float = float("-inf")
+    settled: bool = False
 
 
 @dataclass
@@ -105,14 +113,19 @@ class AlarmBook:
             state = self._pairs[key] = PairAlarm()
         if t <= state.last_step:
             return state.on
+        if state.first_step != state.first_step:  # NaN: the first evaluation
+            # as if seen at the first evaluation: a longer history may have held it till now
+            state.first_step = state.last_seen = t
         state.last_step = t
         if raise_now or hold:
             state.last_seen = t
         if raise_now:
+            state.last_raise = t
             if not state.on:
                 state.on, state.since = True, t
                 self.toggles[own] += 1
                 self._on.setdefault(own, set()).add(other)
+            self._settle(state, t)
             return True
         quiet = t - state.last_seen
         if (
@@ -124,7 +137,37 @@ class AlarmBook:
             state.on = False
             self.toggles[own] += 1
             self._on.get(own, set()).discard(other)
+        self._settle(state, t)
         return state.on
+
+    def _settle(self, state: PairAlarm, t: float) -> None:
+        """Mark a pair whose state no longer depends on evaluations before its first.
+
+        Two histories of a pair agree for good once both are off (an alarm that is off
+        remembers nothing that matters). An alarm held from before the first evaluation, or
+        raised since, is surely released by now when the pair has been clear for
+        ``release_after_s`` and neither the first evaluation nor the last raise is within
+        ``min_on_s``: then it is off here and in any longer history.
+        """
+        if state.settled or state.on:
+            return
+        p = self.policy
+        state.settled = (
+            t - state.last_seen >= p.release_after_s
+            and t - max(state.first_step, state.last_raise) >= p.min_on_s
+        )
+
+    def unsettled(self, since_t: float) -> list[tuple[str, str]]:
+        """Pairs whose alarm state may depend on evaluations before ``since_t`` (s).
+
+        A pair is unsettled when it was first evaluated at or before ``since_t`` and has
+        not since been clear long enough for any alarm to be released (see
+        :meth:`_settle`): with a longer history it could be on where it is off, or have
+        been raised earlier and be released at another time.
+        """
+        return sorted(
+            key for key, s in self._pairs.items() if not s.settled and s.first_step <= since_t
+        )
 
     def is_on(self, own: str, other: str) -> bool:
         """Whether a pair's alarm is on."""

@@ -379,4 +379,5 @@ def _summarise(
         failures=tuple(sorted(failures, key=lambda f: (f.stage, f.name))),
         tasks=tasks,
         seconds=time.perf_counter() - started,
+        unsettled_alarms=sum(len(w.unsettled_alarms) for w in wins),
     )

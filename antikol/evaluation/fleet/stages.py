@@ -31,7 +31,11 @@ the conflict is over). A window's task replays ``warmup_s`` (default 600 s) befo
 first cycle and keeps only the events of its own cycles. The result is exact when no pair
 alarm crossing a window start has been held for longer than the warm-up: 600 s is far
 longer than the hysteresis' hold and release times, but a pair whose gap kept closing
-slowly for ten minutes would break it. ``tests/test_fleet.py`` checks the equality event
+slowly for ten minutes would break it. That is checked: at the window's first cycle, the
+pairs that have been in conflict since the warm-up began (their alarm may be on in a
+continuous run and off here, see :meth:`AlarmBook.unsettled
+<antikol.analysis.alarms.AlarmBook.unsettled>`) are counted in
+:attr:`WindowResult.unsettled_alarms` and logged. ``tests/test_fleet.py`` checks the equality event
 for event on generated traffic with 120 s windows and warm-ups;
 ``benchmarks/bench_fleet.py`` checks it on the Kraków map. The warm-up costs
 ``warmup_s / window_s`` of extra analysis.
@@ -82,6 +86,9 @@ from antikol.evaluation.replay import EVENT_COLUMNS, cycles, event_values
 from antikol.positioning.config import PositioningConfig
 from antikol.report import VehicleReport
 from antikol.thresholds import EXPIRY_S
+
+#: How long a vehicle stays in the analysers' memory without reporting, s (dead reckoning).
+_TABLE_MEMORY_S = 30.0
 
 __all__ = [
     "EVENT_FIELDS",
@@ -467,6 +474,9 @@ class WindowResult:
         suppression reason, ``track_advisory``, or ``not_flagged``).
     included : int
         Vehicles fed to the analyser (core and margin).
+    unsettled_alarms : tuple of (str, str)
+        Pairs whose alarm at the window's start may differ from a continuous replay: in
+        conflict since the warm-up began (see the module). Empty when the warm-up sufficed.
     """
 
     day: int
@@ -479,6 +489,7 @@ class WindowResult:
     lamp_cycles: dict[str, int] = field(default_factory=dict)
     sector_only: dict[tuple[int, int], dict[str, int]] = field(default_factory=dict)
     included: int = 0
+    unsettled_alarms: tuple[tuple[str, str], ...] = ()
 
 
 def analyse_window(
@@ -541,6 +552,7 @@ def analyse_window(
     lamps: Counter[str] = Counter()
     sector_only: dict[tuple[int, int], Counter[str]] = defaultdict(Counter)
     vehicle_cycles = 0
+    unsettled: tuple[tuple[str, str], ...] = ()
     for t_end, batch in cycles(reports, c):
         k = cycle_index(t_end, c)
         for r in batch:
@@ -558,6 +570,8 @@ def analyse_window(
                 results[name] = an.assess_all(t=t_end)
         if k < lo:
             continue
+        if k == lo and track is not None and warm > config.first_cycle(day):
+            unsettled = _unsettled(track, warm, config, day, window, cell)
         main = results["track" if track is not None else "sector"]
         table = (track if track is not None else sector).table
         for own in main:
@@ -594,7 +608,28 @@ def analyse_window(
         lamp_cycles=dict(lamps),
         sector_only={k: dict(v) for k, v in sector_only.items()},
         included=len(included),
+        unsettled_alarms=unsettled,
     )
+
+
+def _unsettled(
+    track: Analyser, warm: int, config: FleetConfig, day: int, window: int, cell: tuple[int, int]
+) -> tuple[tuple[str, str], ...]:
+    """Pairs in conflict since the warm-up began (their first evaluation within the time a
+    vehicle stays in the table without reporting): the warm-up did not settle them."""
+    since_t = warm * config.cycle_s + _TABLE_MEMORY_S
+    pairs = tuple(track.alarms.unsettled(since_t))
+    if pairs:
+        logger.warning(
+            "day %d window %d region %s: %d pair alarm(s) in conflict since the warm-up "
+            "began (%s): they may differ from a continuous replay; raise --warmup",
+            day,
+            window,
+            cell,
+            len(pairs),
+            ", ".join(f"{a}/{b}" for a, b in pairs[:5]),
+        )
+    return pairs
 
 
 def _where(

@@ -97,6 +97,9 @@ class FleetSummary:
         Tasks run per stage.
     seconds : float
         Wall time, s.
+    unsettled_alarms : int
+        Pair alarms that had been in conflict since their window's warm-up began (they may
+        differ from a continuous replay; 0 when every warm-up sufficed).
     """
 
     partitions: int
@@ -114,6 +117,7 @@ class FleetSummary:
     failures: tuple[PartitionFailure, ...] = ()
     tasks: dict[str, int] = field(default_factory=dict)
     seconds: float = 0.0
+    unsettled_alarms: int = 0
 
     @property
     def complete(self) -> bool:
@@ -162,6 +166,12 @@ class FleetSummary:
             for h in self.hot_spots[:5]:
                 why = ", ".join(f"{k} {v}" for k, v in sorted(h.reasons.items()))
                 out.append(f"  {h.lat:.5f},{h.lon:.5f}: {h.cycles} ({why})")
+        if self.unsettled_alarms:
+            out.append(
+                f"warm-up too short: {self.unsettled_alarms} pair alarm(s) were in conflict "
+                "since their window's warm-up began and may differ from a continuous replay "
+                "(raise --warmup)"
+            )
         for f in self.failures:
             out.append(f"FAILED {f.stage} {f.name}: {f.error}")
         return out
