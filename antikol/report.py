@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from antikol.errors import InvalidReportError
 from antikol.kinds import BRAKE_STATES, BrakeState
+from antikol.numeric import finite_float, why_not_finite
 
 __all__ = [
     "MAX_ROUTE_EDGES",
@@ -215,14 +216,8 @@ def _store_float(obj: object, attr: str, name: str | None = None) -> None:
 
 
 def _require_finite(name: str, value: object) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InvalidReportError(name, value, "must be a real number")
-    try:
-        finite = math.isfinite(value)
-    except OverflowError:  # an int beyond the range of a double
-        raise InvalidReportError(name, value, "too large for a double") from None
-    if not finite:
-        raise InvalidReportError(name, value, "NaN or infinite")
+    if finite_float(value) is None:
+        raise InvalidReportError(name, value, why_not_finite(value))
 
 
 def _edge_sequence(route: object) -> tuple[object, ...]:

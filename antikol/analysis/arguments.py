@@ -6,14 +6,13 @@ Each check names the argument it rejects and raises
 
 from __future__ import annotations
 
-import math
-import numbers
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from antikol.errors import InvalidArgumentError
+from antikol.numeric import finite_float, why_not_finite
 
 __all__ = ["FloatArray", "finite", "like_inputs", "speeds"]
 
@@ -32,14 +31,9 @@ def speeds(value: npt.ArrayLike, name: str) -> FloatArray:
 
 def finite(value: float, name: str) -> float:
     """A real, finite number as a float."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InvalidArgumentError(name, value, "must be a real number")
-    try:
-        out = float(value)
-    except OverflowError:  # an int beyond the range of a double
-        raise InvalidArgumentError(name, value, "too large for a double") from None
-    if not math.isfinite(out):
-        raise InvalidArgumentError(name, value, "must be finite")
+    out = finite_float(value)
+    if out is None:
+        raise InvalidArgumentError(name, value, why_not_finite(value))
     return out
 
 

@@ -86,7 +86,6 @@ report: an unavailable position, speed or heading, a speed above
 
 from __future__ import annotations
 
-import math
 import threading
 from typing import Any, Final
 
@@ -94,6 +93,7 @@ from antikol.errors import InvalidArgumentError, InvalidReportError
 from antikol.ingest.cobs import FrameError
 from antikol.ingest.protocol import EncodeError
 from antikol.kinds import BrakeState
+from antikol.numeric import finite_float
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -166,20 +166,9 @@ def _timestamp_its_ms(t: float, epoch_unix_s: float, leap_seconds: int) -> float
     return (t + epoch_unix_s - ITS_EPOCH_UNIX_S + leap_seconds) * 1000.0
 
 
-def _finite(value: object) -> float | None:
-    """``value`` as a finite float, or None if it is not a finite real number."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:  # an int beyond the range of a double
-        return None
-    return number if math.isfinite(number) else None
-
-
 def _time_arguments(epoch_unix_s: object, leap_seconds: object) -> tuple[float, int]:
     """Check the time-scale arguments shared by encoder and decoder."""
-    epoch = _finite(epoch_unix_s)
+    epoch = finite_float(epoch_unix_s)
     if epoch is None:
         raise InvalidArgumentError("epoch_unix_s", epoch_unix_s, "not a finite number")
     if isinstance(leap_seconds, bool) or not isinstance(leap_seconds, int):
@@ -198,7 +187,7 @@ def _length_units(length_m: float | None) -> int:
 def _width_units(width_m: float | None) -> int:
     if width_m is None:
         return _WIDTH_UNAVAILABLE
-    width = _finite(width_m)
+    width = finite_float(width_m)
     if width is None or width <= 0.0:
         raise EncodeError("width_m", width_m, "must be a positive, finite number of metres")
     return max(1, min(round(width * 10.0), _WIDTH_OUT_OF_RANGE))
@@ -400,7 +389,7 @@ def decode_cam(
         pycrate is not installed (``pip install 'antikol[cits]'``).
     """
     epoch, leap = _time_arguments(epoch_unix_s, leap_seconds)
-    reference = _finite(t_reference)
+    reference = finite_float(t_reference)
     if reference is None:
         raise InvalidArgumentError("t_reference", t_reference, "not a finite number")
     reference_ms = _timestamp_its_ms(reference, epoch, leap)
