@@ -110,7 +110,8 @@ def main() -> None:
         same = events(tmp / f"dask{n}") == ref_events
         print(
             f"dask {n} worker(s): {s.tasks}, {walls[n]:.1f} s, complete={s.complete}, "
-            f"events equal to the single-process run: {same} ({s.events} events); "
+            f"events equal to the single-process run: {same} ({s.events} events), "
+            f"unsettled alarms at window starts {s.unsettled_alarms}; "
             f"peak memory of a worker {peaks[n]:.0f} MB"
         )
 

@@ -56,6 +56,7 @@ from antikol.kinds import Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import DiscreteFix, FixPoint, PositionSource, TrackPosition
+from antikol.positioning.reported import ReportedFirst, ReportedSettings
 from antikol.report import VehicleReport
 from antikol.table import CLOCK_WINDOW_S, TableUpdate, VehicleTable
 from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
@@ -121,6 +122,9 @@ class AnalyserConfig:
         Half-width of the corridor polygons drawn for zones, m.
     parallel_distance_m : float
         A suppressed vehicle this close to a zone counts as on a parallel track, m.
+    reported_positions : ReportedSettings or None
+        Use the track positions other vehicles report of themselves, after the checks of
+        :mod:`antikol.positioning.reported` (None: always match every vehicle here).
     """
 
     min_horizon_m: float = MIN_HORIZON_M
@@ -143,6 +147,7 @@ class AnalyserConfig:
     branches: BranchSettings = field(default_factory=BranchSettings)
     corridor_half_width_m: float = 1.7
     parallel_distance_m: float = 10.0
+    reported_positions: ReportedSettings | None = field(default_factory=ReportedSettings)
 
     def __post_init__(self) -> None:
         for name in ("warning_probability", "emergency_probability", "min_hypothesis_probability"):
@@ -279,10 +284,25 @@ class Analyser:
             if track_map is not None and position_source is None
             else None
         )
-        self._source: PositionSource | None = (
-            position_source if position_source is not None else self.positioner
-        )
         c = self.config
+        #: Reported track positions in use (None without a map, with a ``position_source``
+        #: or when :attr:`AnalyserConfig.reported_positions` is None): ``.used`` and
+        #: ``.rejected`` count them.
+        self.reported: ReportedFirst | None = None
+        if track_map is not None and self.positioner is not None and c.reported_positions:
+            self.reported = ReportedFirst(
+                track_map,
+                self.positioner,
+                exclude=() if own_id is None else (own_id,),
+                settings=c.reported_positions,
+            )
+        self._source: PositionSource | None = (
+            position_source
+            if position_source is not None
+            else self.reported
+            if self.reported is not None
+            else self.positioner
+        )
         self._view_settings = ViewSettings(
             c.min_horizon_m,
             c.max_hypotheses,

@@ -27,6 +27,7 @@ outage). Received reports never set it.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import logging
 import math
@@ -49,7 +50,7 @@ from antikol.ingest.protocol import decode_frame, encode_report, next_seq
 from antikol.onboard.receiver import SecureReceiver
 from antikol.onboard.sources import GpsSource, PacedSource, open_source
 from antikol.onboard.transport import DEFAULT_PORT, UdpTransport
-from antikol.report import VehicleReport
+from antikol.report import ReportedTrackPosition, VehicleReport
 
 __all__ = ["EventSink", "OnboardUnit", "UnitConfig", "open_log"]
 
@@ -452,7 +453,9 @@ class OnboardUnit:
         keys = self.config.keys
         try:
             frame = encode_report(
-                newest, seq=self._seq, signer=keys.signer if keys is not None else None
+                self._with_track_position(newest),
+                seq=self._seq,
+                signer=keys.signer if keys is not None else None,
             )
         except Exception:
             self.counters.faults["encode_error"] += 1
@@ -465,6 +468,24 @@ class OnboardUnit:
         for report in [*fresh[:-1], own]:
             self._update(report)
         self._log("tx", own)
+
+    def _with_track_position(self, report: VehicleReport) -> VehicleReport:
+        """The own report with the unit's own track position at its time, when confident:
+        receivers on the same map use it instead of matching this vehicle again."""
+        if report.track_position is not None or self.analyser.track_map is None:
+            return report
+        try:
+            pos = self.analyser.position(report.vehicle_id, report.t)
+        except Exception:  # a report goes out with or without it
+            self.counters.faults["own_position_error"] += 1
+            logger.exception("own track position unavailable")
+            return report
+        if pos is None or pos.status != "confident" or pos.edge_id is None:
+            return report
+        if pos.offset_m is None or pos.direction is None:  # pragma: no cover - confident
+            return report
+        own = ReportedTrackPosition(pos.edge_id, pos.offset_m, pos.direction)
+        return dataclasses.replace(report, track_position=own)
 
     def _update(self, report: VehicleReport) -> None:
         try:

@@ -1,0 +1,189 @@
+"""Track positions that the vehicles report themselves, checked before they are used.
+
+An on-board unit positions its own vehicle with everything it has — every GPS fix, its
+odometer, its route — and can send the result in its report
+(:attr:`VehicleReport.track_position <antikol.report.VehicleReport.track_position>`).
+A receiver that re-matches the other vehicle from one report a second knows less, and
+spends most of its cycle doing it. :class:`ReportedFirst` uses a reported track position
+when it passes every check, and the receiver's own matching otherwise:
+
+* the edge exists on this map (the sender's map must be the same: edge ids are the map's);
+* the offset lies on the edge (``length_slack_m`` of rounding allowed) and the direction is
+  +1 or -1;
+* when the report carries a GPS fix, the reported place is within ``max_fix_distance_m``
+  of it (a sender on another map version, or a wrong position, shows here).
+
+Nothing received is trusted further than that: a refused track position is counted by
+reason (:attr:`ReportedFirst.rejected`) and the report goes to the matcher like any other.
+The own vehicle of an on-board unit is always matched by the unit itself (``exclude``). A
+used position is carried to the analysis time along the track at the reported speed, and
+its uncertainty grows with that time.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass
+
+from antikol.positioning.deadreckoning import advance
+from antikol.positioning.records import Hypothesis, PositionSource, TrackPosition
+from antikol.report import VehicleReport
+from trackmap import TrackMap
+
+__all__ = ["ReportedFirst", "ReportedSettings"]
+
+
+@dataclass(frozen=True, slots=True)
+class ReportedSettings:
+    """Checks and uncertainty of reported track positions (SI units).
+
+    Attributes
+    ----------
+    max_fix_distance_m : float
+        Farthest the reported place may lie from the report's own GPS fix, m.
+    length_slack_m : float
+        How far past an edge's end a reported offset may lie (rounding), m.
+    sigma_m : float
+        One-sigma uncertainty of a reported position at its report time, m ...
+    speed_sigma_mps : float
+        ... growing by this for every second it is carried forward, m/s.
+    """
+
+    max_fix_distance_m: float = 30.0
+    length_slack_m: float = 1.0
+    sigma_m: float = 2.0
+    speed_sigma_mps: float = 0.3
+
+
+class ReportedFirst:
+    """A :class:`~antikol.positioning.records.PositionSource`: reported track positions
+    that pass the checks, the ``inner`` source (the matcher) for everything else.
+
+    Parameters
+    ----------
+    net : TrackMap
+    inner : PositionSource
+        Positions the reports without a usable track position.
+    exclude : collection of str, optional
+        Vehicles always positioned by ``inner`` (the own vehicle of an on-board unit).
+    settings : ReportedSettings, optional
+    """
+
+    def __init__(
+        self,
+        net: TrackMap,
+        inner: PositionSource,
+        *,
+        exclude: Collection[str] = (),
+        settings: ReportedSettings | None = None,
+    ) -> None:
+        self.net = net
+        self.inner = inner
+        self.exclude = frozenset(exclude)
+        self.settings = settings or ReportedSettings()
+        self.rejected: Counter[str] = Counter()
+        self.used = 0
+        self._latest: dict[str, VehicleReport] = {}
+
+    def check(self, report: VehicleReport) -> str | None:
+        """Why a report's track position cannot be used (None when it can)."""
+        tp = report.track_position
+        if tp is None:
+            return "absent"
+        if not 0 <= tp.edge_id < len(self.net.edges):
+            return "unknown_edge"
+        length = self.net.edge_length(tp.edge_id)
+        if tp.offset_m > length + self.settings.length_slack_m:
+            return "offset_beyond_edge"
+        if report.fix_quality != 0:
+            x, y = self.net.point_at(tp.edge_id, min(tp.offset_m, length))
+            fx, fy = self.net.to_local(report.lon, report.lat)
+            if ((fx - x) ** 2 + (fy - y) ** 2) ** 0.5 > self.settings.max_fix_distance_m:
+                return "far_from_fix"
+        return None
+
+    def update_many(
+        self, reports: Sequence[VehicleReport], *, outputs: bool = True
+    ) -> list[TrackPosition]:
+        """Take the usable reported positions; the other reports go to ``inner``."""
+        rest: list[VehicleReport] = []
+        for r in reports:
+            reason = None if r.vehicle_id not in self.exclude else "absent"
+            if reason is None:
+                reason = self.check(r)
+            if reason is None:
+                self._latest[r.vehicle_id] = r
+                self.used += 1
+                continue
+            if reason != "absent":
+                self.rejected[reason] += 1
+            self._latest.pop(r.vehicle_id, None)
+            rest.append(r)
+        if rest:
+            self.inner.update_many(rest, outputs=False)
+        if not outputs:
+            return []
+        out = []
+        for r in reports:
+            pos = self.position(r.vehicle_id, r.t)
+            if pos is None:  # pragma: no cover - every vehicle here has just reported
+                raise RuntimeError(f"no position of {r.vehicle_id!r} after its report")
+            out.append(pos)
+        return out
+
+    def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
+        """The vehicle's position at ``t`` (s): from its reported track position when its
+        newest report had a usable one, else from ``inner``."""
+        report = self._latest.get(vehicle_id)
+        if report is None:
+            return self.inner.position(vehicle_id, t)
+        return self._carried(report, report.t if t is None else float(t))
+
+    def forget(self, vehicle_id: str) -> None:
+        """Drop a vehicle (it left the table)."""
+        self._latest.pop(vehicle_id, None)
+        self.inner.forget(vehicle_id)
+
+    def _carried(self, report: VehicleReport, t: float) -> TrackPosition:
+        tp = report.track_position
+        if tp is None:  # pragma: no cover - only checked reports are kept
+            raise RuntimeError("a kept report without a track position")
+        edge = self.net.edges[tp.edge_id]
+        offset = min(tp.offset_m, edge.length_m)
+        wrong = not edge.allows(tp.direction)
+        dt = max(t - report.t, 0.0)
+        moved = advance(
+            self.net, tp.edge_id, offset, tp.direction, report.speed_mps * dt, report, wrong=wrong
+        )
+        x, y = self.net.point_at(moved.edge_id, moved.offset_m)
+        lon, lat = self.net.to_lonlat(x, y)
+        s = self.settings
+        hyp = Hypothesis(
+            edge_id=moved.edge_id,
+            direction=moved.direction,
+            offset_m=moved.offset_m,
+            probability=1.0,
+            progress_m=0.0,
+            wrong_way=wrong,
+            # the sender matched itself against the permitted direction: its word is the
+            # sustained evidence a receiver would otherwise wait for
+            wrong_way_s=float("inf") if wrong else 0.0,
+        )
+        return TrackPosition(
+            vehicle_id=report.vehicle_id,
+            t=t,
+            status="confident",
+            edge_id=moved.edge_id,
+            direction=moved.direction,
+            offset_m=moved.offset_m,
+            lon=float(lon),
+            lat=float(lat),
+            heading_deg=self.net.heading_at(moved.edge_id, moved.offset_m, moved.direction),
+            speed_mps=report.speed_mps,
+            probability=1.0,
+            sigma_m=s.sigma_m + s.speed_sigma_mps * dt,
+            wrong_way=wrong,
+            hypotheses=(hyp,),
+            dead_reckoned_s=dt,
+        )

@@ -1,0 +1,131 @@
+"""Track positions the vehicles report of themselves: used when they pass the checks,
+refused and counted otherwise, never used for the own vehicle."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import trackmap
+from antikol import Analyser, AnalyserConfig, ReportedTrackPosition
+from antikol.ingest.protocol import StreamDecoder, encode_report
+from tests._osm import FRAME, OsmBuilder
+from tests._paths import interleave, reports_along
+
+LINE = [(0.0, float(y)) for y in range(0, 2001, 100)]
+T = np.arange(0.0, 8.0, 1.0)
+
+
+@pytest.fixture(scope="module")
+def net(tmp_path_factory) -> trackmap.TrackMap:
+    b = OsmBuilder()
+    b.line(LINE, oneway="yes")
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("m") / "line.osm"))
+
+
+def _along(net, vid, start_m, speed_mps, *, offset_shift_m=0.0, edge=None, **kw):
+    """Reports along the line, each with its true track position (shifted if asked)."""
+    (e,) = net.edges
+    out = []
+    for k, r in enumerate(
+        reports_along(vid, LINE, start_m=start_m, speed_mps=speed_mps, t=T, frame=FRAME, **kw)
+    ):
+        tp = ReportedTrackPosition(
+            e.edge_id if edge is None else edge, start_m + speed_mps * T[k] + offset_shift_m, 1
+        )
+        out.append(dataclasses.replace(r, track_position=tp))
+    return out
+
+
+def test_a_checked_reported_position_is_used_and_the_vehicle_is_not_matched(net):
+    an = Analyser(track_map=net)
+    for r in _along(net, "B", 500.0, 10.0, offset_shift_m=6.0):
+        an.update(r)
+    pos = an.position("B", t=7.5)
+    # the sender's own position (6 m ahead of where its GPS fix projects), carried 0.5 s
+    assert pos is not None and pos.status == "confident"
+    assert pos.offset_m == pytest.approx(500.0 + 70.0 + 6.0 + 5.0, abs=1e-6)
+    assert pos.sigma_m == pytest.approx(2.0 + 0.3 * 0.5)
+    assert an.reported is not None and an.reported.used == len(T)
+    assert an.positioner is not None and an.positioner.position("B") is None
+
+
+@pytest.mark.parametrize(
+    ("change", "reason"),
+    [
+        ({"edge": 99}, "unknown_edge"),
+        ({"offset_shift_m": 5000.0}, "offset_beyond_edge"),
+        ({"offset_shift_m": 45.0}, "far_from_fix"),
+    ],
+)
+def test_a_reported_position_that_fails_a_check_is_counted_and_matched_instead(net, change, reason):
+    an = Analyser(track_map=net)
+    for r in _along(net, "B", 500.0, 10.0, **change):
+        an.update(r)
+    pos = an.position("B")
+    assert an.reported is not None and an.reported.rejected == {reason: len(T)}
+    assert an.reported.used == 0
+    # matched from its GPS fixes, where it really is
+    assert pos is not None and pos.offset_m == pytest.approx(570.0, abs=5.0)
+
+
+def test_the_own_vehicle_is_always_matched_by_the_unit(net):
+    an = Analyser(track_map=net, own_id="A")
+    for r in interleave(
+        _along(net, "A", 100.0, 10.0, offset_shift_m=6.0), _along(net, "B", 400.0, 0.0)
+    ):
+        an.update(r)
+    own = an.position("A")  # positioning runs when a position is first asked for
+    assert an.reported is not None and an.reported.used == len(T)  # B's only
+    assert own is not None and own.offset_m == pytest.approx(170.0, abs=5.0)
+
+
+def test_reported_positions_travel_the_radio_and_can_be_switched_off(net):
+    frames = b"".join(encode_report(r) for r in _along(net, "B", 500.0, 10.0))
+    (report, *_) = StreamDecoder().feed(frames)
+    assert report.track_position is not None
+    on = Analyser(track_map=net)
+    off = Analyser(track_map=net, config=AnalyserConfig(reported_positions=None))
+    on.feed_bytes(frames)
+    off.feed_bytes(frames)
+    assert on.position("B") is not None and off.position("B") is not None
+    assert on.reported is not None and on.reported.used == len(T)
+    assert off.reported is None
+    assert off.positioner is not None and off.positioner.position("B") is not None
+
+
+def test_an_on_board_unit_sends_its_confident_track_position(net, tmp_path):
+    # a unit on the map broadcasts its own matched position; a receiver uses it
+    import io
+
+    from antikol.onboard.transport import UdpTransport
+    from antikol.onboard.unit import EventSink, OnboardUnit, UnitConfig
+
+    rows = ["vehicle_id,t,lat,lon,speed_mps,course_deg"]
+    t = np.arange(0, 30.0)
+    for r in reports_along("T1", LINE, start_m=100.0, speed_mps=10.0, t=t, frame=FRAME):
+        rows.append(f"T1,{r.t},{r.lat!r},{r.lon!r},10,{r.course_deg!r}")
+    (tmp_path / "t1.csv").write_text("\n".join(rows) + "\n")
+    listener = UdpTransport(("127.0.0.1", 0), [])
+    config = UnitConfig(
+        vehicle_id="T1",
+        gps=f"replay:{tmp_path / 't1.csv'}",
+        bind=("127.0.0.1", 0),
+        destinations=(listener.address,),
+        speed=8.0,
+        duration_s=2.5,
+    )
+    unit = OnboardUnit(config, track_map=net, events=EventSink(io.StringIO()))
+    unit.run()
+    frames = b"".join(listener.receive(10_000))
+    listener.close()
+    reports = StreamDecoder().feed(frames)
+    assert len(reports) >= 10
+    placed = [r for r in reports if r.track_position is not None]
+    assert placed and len(placed) >= len(reports) - 3  # once its position is confident
+    for r in placed:
+        x, y = net.point_at(r.track_position.edge_id, r.track_position.offset_m)
+        fx, fy = net.to_local(r.lon, r.lat)
+        assert np.hypot(x - fx, y - fy) < 15.0 and r.track_position.direction == 1
