@@ -6,11 +6,13 @@ Every ``import`` statement counts, wherever it stands (inside functions and unde
 
 from __future__ import annotations
 
-import ast
 from pathlib import Path
 
 import networkx as nx
 import pytest
+
+from tests._layout import import_graph as _graph
+from tests._layout import module_problems
 
 PACKAGE = Path(__file__).resolve().parent.parent / "trackmap"
 
@@ -26,33 +28,10 @@ QUERY_SIDE = (
     "trackmap.storage",
 )
 BUILD_SIDE = "trackmap.builder"
-MAX_LINES = 800
-
-
-def module_name(path: Path) -> str:
-    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
 def import_graph() -> nx.DiGraph:
-    """Module -> trackmap modules it imports (``from trackmap import x`` -> the submodule)."""
-    modules = {module_name(p): p for p in PACKAGE.rglob("*.py")}
-    g = nx.DiGraph()
-    g.add_nodes_from(modules)
-    for name, path in modules.items():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            targets: list[str] = []
-            if isinstance(node, ast.Import):
-                targets = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-                targets = [f"{node.module}.{a.name}" for a in node.names]
-                targets = [t if t in modules else node.module for t in targets]
-            for target in targets:
-                while target not in modules and "." in target:
-                    target = target.rsplit(".", 1)[0]
-                if target in modules and target != name and target.startswith("trackmap"):
-                    g.add_edge(name, target)
-    return g
+    return _graph(PACKAGE)
 
 
 def test_no_import_cycle():
@@ -81,19 +60,7 @@ def test_routing_does_not_need_the_network():
 
 @pytest.mark.parametrize("path", sorted(PACKAGE.rglob("*.py")), ids=lambda p: p.name)
 def test_module_size_and_exports(path):
-    text = path.read_text(encoding="utf-8")
-    assert len(text.splitlines()) <= MAX_LINES
-    tree = ast.parse(text)
-    assigned = {
-        t.id
-        for node in tree.body
-        if isinstance(node, (ast.Assign, ast.AnnAssign))
-        for t in (node.targets if isinstance(node, ast.Assign) else [node.target])
-        if isinstance(t, ast.Name)
-    }
-    assert "__all__" in assigned
-    # assertions vanish under python -O: library code raises trackmap's own errors
-    assert not any(isinstance(node, ast.Assert) for node in ast.walk(tree))
+    assert module_problems(path) == []
 
 
 if __name__ == "__main__":  # print the graph: python tests/test_trackmap_layout.py

@@ -46,6 +46,7 @@ from trackmap.model import (
     Stop,
     TrackState,
 )
+from trackmap.named import load_named
 from trackmap.network import TrackMap
 from trackmap.storage import load, save
 
@@ -86,5 +87,6 @@ __all__ = [
     "default_map_path",
     "load",
     "load_default",
+    "load_named",
     "save",
 ]

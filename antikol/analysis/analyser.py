@@ -35,7 +35,6 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
-import numpy as np
 import shapely
 
 from antikol.analysis import braking
@@ -47,7 +46,8 @@ from antikol.analysis.geometry import closing_speed_mps
 from antikol.analysis.pairs import PairEvaluator, PairOutcome, PairSettings
 from antikol.analysis.profiles import BrakingProfile, load_profile
 from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
-from antikol.analysis.views import CycleViews, VehicleView, ViewSettings, build_views
+from antikol.analysis.threats import suppression_reason, track_threat
+from antikol.analysis.views import CycleViews, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
 from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
@@ -577,13 +577,15 @@ class Analyser:
             result = outcomes.get(ovid)
             if result is None:
                 if hit is not None:
-                    reason = self._suppression_reason(cycle, own_view, ov)
+                    reason = suppression_reason(
+                        self.track_map, cycle, own_view, ov, self.config.parallel_distance_m
+                    )
                     suppressed.append(Suppressed(ovid, reason, hit.distance_m, hit.bearing_deg))
                 continue
             raise_now = result.level in _ALARM_LEVELS
             if result.level == "none" and not self._alarm_on(vid, ovid, now, result.hold):
                 continue  # nothing to show and no alarm to hold
-            th = self._track_threat(own_view, ov, result)
+            th = track_threat(own_view, ov, result)
             threats.append(self._alarm(vid, ovid, now, th, raise_now=raise_now, hold=result.hold))
             seen.add(ovid)
         threats.extend(self._released(vid, now, seen))
@@ -649,31 +651,6 @@ class Analyser:
                 if last is not None:
                     out.append(replace(last, held=True))
         return out
-
-    def _track_threat(self, own: VehicleView, other: VehicleView, result: PairOutcome) -> Threat:
-        f = result.finding
-        if own.position is None or other.position is None:  # pragma: no cover - matched
-            raise RuntimeError("track threat without positions")
-        detail = f"{f.detail} (zone {f.zone})"
-        if result.ambiguous:
-            detail += f" (conflict probability {result.probability:.2f})"
-        return Threat(
-            vehicle_id=other.vehicle_id,
-            kind=f.kind,
-            level=result.level,
-            distance_m=f.gap_m,
-            closing_speed_mps=f.closing_mps,
-            ttc_s=f.ttc_s,
-            method="track",
-            zone=f.zone,
-            probability=min(result.probability, 1.0),
-            own_match_probability=own.position.probability,
-            other_match_probability=other.position.probability,
-            ambiguous=result.ambiguous,
-            detail=detail,
-            own_ends=own.ends.assumption,
-            other_ends=other.ends.assumption,
-        )
 
     # -- building blocks -----------------------------------------------------------------
     def _expire(self, t: float | None) -> list[str]:
@@ -806,27 +783,3 @@ class Analyser:
 
     def _traction(self, vid: str) -> float:
         return self._profile(vid).traction_mps2
-
-    def _suppression_reason(self, cycle: CycleViews, own: VehicleView, other: VehicleView) -> str:
-        if self.track_map is None:  # pragma: no cover - guarded
-            return "not_reachable"
-        own_edges = {s.edge_id for h in own.hyps for p in h.paths for s in p.steps}
-        oth_edges = {h.edge_id for h in other.hyps}
-        for a, b, _, _ in self.track_map.grade_separated:
-            if (a in own_edges and b in oth_edges) or (b in own_edges and a in oth_edges):
-                return "grade_separated"
-        shared = any(
-            other.vehicle_id in cycle.passing(ap.conflict_id)
-            for h in own.hyps
-            for ap in h.approaches
-        )
-        if shared:
-            return "no_overlap"
-        pos = other.position
-        if pos is not None and pos.edge_id is not None and pos.offset_m is not None:
-            pt = shapely.Point(self.track_map.point_at(pos.edge_id, pos.offset_m))
-            geoms = [self.track_map.edges[e].geometry for e in own_edges]
-            near = float(np.min(shapely.distance(pt, geoms))) if geoms else math.inf
-            if near <= self.config.parallel_distance_m:
-                return "parallel_track"
-        return "not_reachable"

@@ -40,6 +40,31 @@ import numpy as np
 import numpy.typing as npt
 from pyproj import Geod
 
+__all__ = [
+    "PAPER_EQUATOR_KM",
+    "PAPER_KM_PER_DEG_LAT",
+    "PAPER_M_PER_DEG_ARC",
+    "PAPER_SPHERE_RADIUS_M",
+    "ArrayLike",
+    "PlanarOffset",
+    "angle_difference_deg",
+    "closing_speed_mps",
+    "dist_km",
+    "geodesic_inverse",
+    "great_circle_course_deg",
+    "great_circle_distance_m",
+    "latdist_km",
+    "londist_km",
+    "odlmst_km_per_deg",
+    "paper_offset",
+    "paper_offsets",
+    "paper_sphere",
+    "parlen_km",
+    "sight_rad",
+    "velocity_en",
+    "wgs84",
+]
+
 ArrayLike = float | npt.NDArray[np.float64]
 
 #: Length of one degree of meridian arc used by the paper, km (formula 4).

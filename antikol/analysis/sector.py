@@ -34,6 +34,8 @@ from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
 
+__all__ = ["CourseKeeper", "SectorHit", "SectorRule"]
+
 
 @dataclass(frozen=True, slots=True)
 class SectorRule:

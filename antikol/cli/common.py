@@ -51,14 +51,8 @@ def load_map(name: str | None) -> Any:
     trackmap.errors.TrackMapError
         The map file is missing, unreadable or broken (the message names it).
     """
-    if name is None or name.lower() == "none":
+    if name is None:
         return None
-    import trackmap
+    from trackmap.named import load_named
 
-    if name.lower() == "default":
-        return trackmap.load_default()
-    if name.lower() == "synthetic":
-        from trackmap.synthetic import demo_network
-
-        return demo_network().build()
-    return trackmap.load(name)
+    return load_named(name)

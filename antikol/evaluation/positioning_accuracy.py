@@ -394,7 +394,8 @@ def _judge(
     along = raw = math.nan
     has_fix = r.fix_quality != 0
     if matched:
-        assert est.edge_id is not None and est.offset_m is not None and est.direction is not None
+        if est.edge_id is None or est.offset_m is None or est.direction is None:
+            raise RuntimeError("a matched estimate without a track position")  # pragma: no cover
         d = spec.route.distance_of(
             est.edge_id, est.offset_m, after_m=max(s_ant - track_tolerance_m - 20.0, 0.0)
         )
@@ -476,8 +477,10 @@ def disconnected_windows(
 
 
 def _connected(net: TrackMap, p: FixEvaluation, q: FixEvaluation) -> bool:
-    assert p.edge_id is not None and p.offset_m is not None and p.direction is not None
-    assert q.edge_id is not None and q.offset_m is not None and q.direction is not None
+    if p.edge_id is None or p.offset_m is None or p.direction is None:
+        raise RuntimeError("a matched evaluation without a track position")  # pragma: no cover
+    if q.edge_id is None or q.offset_m is None or q.direction is None:
+        raise RuntimeError("a matched evaluation without a track position")  # pragma: no cover
     permitted = not (p.est_wrong_way or q.est_wrong_way)
     reach = _REACH_MARGIN_M + _MAX_SPEED_MPS * max(q.t - p.t, 0.0)
     fwd = net.route_distance(

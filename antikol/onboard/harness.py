@@ -284,11 +284,11 @@ def run_harness(cfg: HarnessConfig) -> HarnessResult:
     HarnessResult
     """
     import trackmap
-    from antikol.cli.common import load_map
+    from trackmap.named import load_named
 
     work = cfg.workdir
     work.mkdir(parents=True, exist_ok=True)
-    net = load_map(cfg.map_name) if cfg.map_name != "none" else None
+    net = load_named(cfg.map_name)
     sim_net = net if net is not None else trackmap.load_default()
     csv = work / "reports.csv"
     ids = _simulate(cfg, sim_net, csv)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -21,11 +21,12 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fleet import SLOT_FIELDS, FleetState
 from antikol.positioning.kalman import track_odometer_step
 from antikol.positioning.reach import ReachTable, state_id
+from antikol.positioning.records import Hypothesis
 from antikol.report import VehicleReport
 from antikol.thresholds import MAX_PATHS_SEARCH
 from trackmap import Path, TrackMap
 
-__all__ = ["Advanced", "advance", "carry", "dead_reckon", "preferred_path"]
+__all__ = ["Advanced", "advance", "carry", "dead_reckon", "edge_mass", "preferred_path"]
 
 _NEG_INF = -math.inf
 
@@ -212,6 +213,14 @@ def _share(paths: list[Path], taken: Path, edge_mass: Mapping[int, float] | None
     if everywhere <= 0.0:
         return 1.0
     return sum(edge_mass.get(e, 0.0) for e in set(taken.edges[1:])) / everywhere
+
+
+def edge_mass(hypotheses: Iterable[Hypothesis]) -> dict[int, float]:
+    """Probability held by the hypotheses on each edge (for :func:`advance`)."""
+    mass: dict[int, float] = {}
+    for h in hypotheses:
+        mass[h.edge_id] = mass.get(h.edge_id, 0.0) + h.probability
+    return mass
 
 
 def preferred_path(

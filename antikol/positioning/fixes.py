@@ -14,18 +14,38 @@ windows and a tolerated number of missed fixes):
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from antikol.positioning.config import PositioningConfig
-from antikol.positioning.records import DiscreteFix, FixPoint
+from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis
 
 if TYPE_CHECKING:
-    from antikol.positioning.matcher import Positioner
     from trackmap import TrackMap
 
-__all__ = ["DiscreteFixes"]
+__all__ = ["DiscreteFixes", "FixHooks"]
+
+
+class FixHooks(Protocol):
+    """What discrete fixes need of the positioner, kept small and explicit (the
+    :class:`~antikol.positioning.matcher.Positioner` provides it; no import of it here)."""
+
+    stats: Counter[str]
+
+    def hypotheses(self, vehicle_id: str) -> tuple[Hypothesis, ...]: ...
+
+    def along(self, row: int) -> float: ...
+
+    def predicted(self, row: int, t: float) -> tuple[int, float, int, float, float, float]: ...
+
+    def mark_lost(self, row: int, reason: str) -> None: ...
+
+    def pin(
+        self, row: int, t: float, edge: int, offset: float, direction: int, s: float, v: float
+    ) -> None: ...
+
 
 logger = logging.getLogger(__name__)
 
@@ -44,7 +64,7 @@ class _VehicleFixes:
 
 
 class DiscreteFixes:
-    """Expected and received discrete fixes of every vehicle of a :class:`Positioner`.
+    """Expected and received discrete fixes of every vehicle of a positioner.
 
     Parameters
     ----------
@@ -87,7 +107,7 @@ class DiscreteFixes:
         """Drop a vehicle."""
         self._vehicles.pop(vid, None)
 
-    def track_expected(self, vid: str, positioner: Positioner, row: int, progress_m: float) -> None:
+    def track_expected(self, vid: str, positioner: FixHooks, row: int, progress_m: float) -> None:
         """Note the fix points passed since the previous report of a vehicle."""
         if not self.equipped(vid):
             return
@@ -113,7 +133,7 @@ class DiscreteFixes:
                 if at is not None and 0.0 < at <= run:
                     vf.expected.append((fid, s0 + at))
 
-    def check_missed(self, vid: str, positioner: Positioner, row: int) -> bool:
+    def check_missed(self, vid: str, positioner: FixHooks, row: int) -> bool:
         """Count expected fixes left behind; True when too many were missed."""
         vf = self._vehicles.get(vid)
         if vf is None or not vf.expected:
@@ -133,7 +153,7 @@ class DiscreteFixes:
         vf.expected = remaining
         return vf.missed > c.max_missed_fixes
 
-    def apply(self, vid: str, positioner: Positioner, row: int, fix: DiscreteFix) -> None:
+    def apply(self, vid: str, positioner: FixHooks, row: int, fix: DiscreteFix) -> None:
         """Accept a fix inside its window (pin the vehicle) or declare the position lost."""
         c = self.config
         self.net.edge(fix.edge_id)

@@ -48,7 +48,7 @@ import numpy.typing as npt
 from antikol.kinds import PositionStatus
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
-from antikol.positioning.deadreckoning import advance, dead_reckon
+from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import (
     SLOT_FIELDS,
@@ -86,14 +86,6 @@ _NEG_INF = -math.inf
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Hypotheses this close (m) across a plain node are the same place.
 _SAME_PLACE_M = 3.0
-
-
-def _edge_mass(hyps: tuple[Hypothesis, ...]) -> dict[int, float]:
-    """Probability held by the hypotheses on each edge."""
-    mass: dict[int, float] = {}
-    for h in hyps:
-        mass[h.edge_id] = mass.get(h.edge_id, 0.0) + h.probability
-    return mass
 
 
 class Positioner:
@@ -633,7 +625,7 @@ class Positioner:
             float(s) - self._f.z[row],
             last,
             wrong=first.wrong_way,
-            edge_mass=_edge_mass(hyps),
+            edge_mass=edge_mass(hyps),
         )
         edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
         x, y = self.net.point_at(edge, off)
@@ -713,7 +705,7 @@ class Positioner:
             float(s) - self._f.z[row],
             self._f.last[row],
             wrong=first.wrong_way,
-            edge_mass=_edge_mass(hyps),
+            edge_mass=edge_mass(hyps),
         )
         return moved.edge_id, moved.offset_m, moved.direction, float(s), float(v), float(s_std)
 

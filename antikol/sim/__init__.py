@@ -43,9 +43,14 @@ from antikol.sim.gps import GpsModel
 from antikol.sim.planning import DEFAULT_SPEED_MPS, SpeedPlan
 from antikol.sim.route_building import random_route, route_from_edges
 from antikol.sim.routes import Route, map_stops_on_route
-from antikol.sim.simulator import DEFAULT_EPOCH_UTC_S, SimulationResult, Simulator
+from antikol.sim.simulator import (
+    DEFAULT_EPOCH_UTC_S,
+    ReceiverModel,
+    SimulationResult,
+    Simulator,
+)
 from antikol.sim.truth import FixLog, Truth, TruthState
-from antikol.sim.urban_gps import ReceiverModel, UrbanGpsModel
+from antikol.sim.urban_gps import UrbanGpsModel
 from antikol.sim.vehicles import TramSpec
 
 __all__ = [

@@ -279,7 +279,8 @@ def route_from_edges(
     dirs = [d_last]
     for k in range(len(ids) - 1, 0, -1):
         prev = layers[k][dirs[-1]]
-        assert prev is not None
+        if prev is None:  # pragma: no cover - every layer was built from a connected one
+            raise RuntimeError(f"route direction lost at step {k}")
         dirs.append(prev)
     dirs.reverse()
     return Route.from_steps(

@@ -344,7 +344,8 @@ def map_stops_on_route(net: TrackMap, route: Route) -> tuple[tuple[float, Stop],
     length = route.length_m
     for k, (edge_id, d) in enumerate(route.steps):
         for stop in by_edge.get(edge_id, ()):
-            assert stop.offset_m is not None
+            if stop.offset_m is None:  # pragma: no cover - only placed stops are indexed
+                continue
             rel = stop.offset_m if d == 1 else route.edge_lengths_m[k] - stop.offset_m
             dist = float(entry[k] + rel)
             if -1e-9 <= dist <= length + 1e-9:

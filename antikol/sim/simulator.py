@@ -20,7 +20,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Final
+from typing import Final, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -30,14 +30,18 @@ from antikol.ingest.replaylog import write_replay_csv
 from antikol.report import VehicleReport
 from antikol.sim.conflicts import ConflictIndex
 from antikol.sim.dynamics import BRAKE_CODES, Dynamics, History
-from antikol.sim.gps import GpsModel, noise_generators, observe
+from antikol.sim.epochs import noise_generators
+from antikol.sim.gps import GpsModel, observe
 from antikol.sim.planning import DEFAULT_SPEED_MPS, SpeedPlan, VehiclePlan
 from antikol.sim.truth import FixLog, Truth
-from antikol.sim.urban_gps import ReceiverModel, UrbanGpsModel, observe_urban
+from antikol.sim.urban_gps import UrbanGpsModel, observe_urban
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
-__all__ = ["DEFAULT_EPOCH_UTC_S", "SimulationResult", "Simulator"]
+__all__ = ["DEFAULT_EPOCH_UTC_S", "ReceiverModel", "SimulationResult", "Simulator"]
+
+#: The receiver models a simulation can use.
+ReceiverModel: TypeAlias = GpsModel | UrbanGpsModel
 
 logger = logging.getLogger(__name__)
 

@@ -32,15 +32,13 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass
-from typing import TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 from scipy.special import stdtrit
 
 from antikol.report import VehicleReport
-from antikol.sim.gps import (
-    GpsModel,
+from antikol.sim.epochs import (
     blocked_after_tunnels,
     check_fields,
     epochs,
@@ -53,7 +51,7 @@ from antikol.sim.truth import FixLog, Truth
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
-__all__ = ["ReceiverModel", "UrbanGpsModel", "canyon_factors", "observe_urban"]
+__all__ = ["UrbanGpsModel", "canyon_factors", "observe_urban"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -185,7 +183,6 @@ class UrbanGpsModel:
 
 
 #: Either receiver model of the simulator.
-ReceiverModel: TypeAlias = GpsModel | UrbanGpsModel
 
 
 def canyon_factors(model: UrbanGpsModel, net: TrackMap) -> FloatArray:
@@ -249,7 +246,7 @@ def observe_urban(
     truth : Truth
     net : TrackMap
     generators : (numpy.random.Generator, numpy.random.Generator)
-        Normals and uniforms (:func:`~antikol.sim.gps.noise_generators`); each epoch draws
+        Normals and uniforms (:func:`~antikol.sim.epochs.noise_generators`); each epoch draws
         one row of each, so a longer run does not change the earlier noise.
 
     Returns

@@ -113,9 +113,9 @@ _MAPS: dict[str, Any] = {}
 def load_map_cached(spec: str) -> Any:
     """The map a ``--map`` value names, loaded once per worker process (None: no map)."""
     if spec not in _MAPS:
-        from antikol.cli.common import load_map
+        from trackmap.named import load_named
 
-        _MAPS[spec] = load_map(spec)
+        _MAPS[spec] = load_named(spec)
     return _MAPS[spec]
 
 

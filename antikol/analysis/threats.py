@@ -1,0 +1,96 @@
+"""What an assessment shows of a pair judged on the track views.
+
+:func:`track_threat` turns a pair's outcome (:mod:`antikol.analysis.pairs`) into the
+:class:`~antikol.analysis.assessment.Threat` a driver or an operator sees, with the
+assumptions it rests on (the ends, the match probabilities, the conflict probability of an
+ambiguous conflict). :func:`suppression_reason` says why the map cleared a vehicle that the
+paper's sector rule would have flagged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import shapely
+
+from antikol.analysis.assessment import Threat
+from antikol.analysis.pairs import PairOutcome
+from antikol.analysis.views import CycleViews, VehicleView
+from trackmap import TrackMap
+
+__all__ = ["suppression_reason", "track_threat"]
+
+
+def track_threat(own: VehicleView, other: VehicleView, result: PairOutcome) -> Threat:
+    """The threat of ``other`` to ``own`` from their pair's outcome (both matched)."""
+    f = result.finding
+    if own.position is None or other.position is None:  # pragma: no cover - matched
+        raise RuntimeError("track threat without positions")
+    detail = f"{f.detail} (zone {f.zone})"
+    if result.ambiguous:
+        detail += f" (conflict probability {result.probability:.2f})"
+    return Threat(
+        vehicle_id=other.vehicle_id,
+        kind=f.kind,
+        level=result.level,
+        distance_m=f.gap_m,
+        closing_speed_mps=f.closing_mps,
+        ttc_s=f.ttc_s,
+        method="track",
+        zone=f.zone,
+        probability=min(result.probability, 1.0),
+        own_match_probability=own.position.probability,
+        other_match_probability=other.position.probability,
+        ambiguous=result.ambiguous,
+        detail=detail,
+        own_ends=own.ends.assumption,
+        other_ends=other.ends.assumption,
+    )
+
+
+def suppression_reason(
+    net: TrackMap | None,
+    cycle: CycleViews,
+    own: VehicleView,
+    other: VehicleView,
+    parallel_distance_m: float,
+) -> str:
+    """Why a vehicle in the sector ahead is no threat on the map.
+
+    Parameters
+    ----------
+    net : TrackMap or None
+    cycle : CycleViews
+        The views of the analysis time (both vehicles' paths walked).
+    own, other : VehicleView
+    parallel_distance_m : float
+        ``other`` this close to a track of the own paths is on a parallel track, m.
+
+    Returns
+    -------
+    str
+        ``grade_separated`` (a bridge or tunnel between the paths), ``no_overlap`` (the
+        paths share a conflict point but not in time), ``parallel_track`` or
+        ``not_reachable``.
+    """
+    if net is None:  # pragma: no cover - guarded by the caller
+        return "not_reachable"
+    own_edges = {s.edge_id for h in own.hyps for p in h.paths for s in p.steps}
+    oth_edges = {h.edge_id for h in other.hyps}
+    for a, b, _, _ in net.grade_separated:
+        if (a in own_edges and b in oth_edges) or (b in own_edges and a in oth_edges):
+            return "grade_separated"
+    shared = any(
+        other.vehicle_id in cycle.passing(ap.conflict_id) for h in own.hyps for ap in h.approaches
+    )
+    if shared:
+        return "no_overlap"
+    pos = other.position
+    if pos is not None and pos.edge_id is not None and pos.offset_m is not None:
+        pt = shapely.Point(net.point_at(pos.edge_id, pos.offset_m))
+        geoms = [net.edges[e].geometry for e in own_edges]
+        near = float(np.min(shapely.distance(pt, geoms))) if geoms else math.inf
+        if near <= parallel_distance_m:
+            return "parallel_track"
+    return "not_reachable"
