@@ -39,7 +39,7 @@ def _along(net, vid, start_m, speed_mps, *, offset_shift_m=0.0, edge=None, **kw)
     return out
 
 
-def test_a_checked_reported_position_is_used_and_the_vehicle_is_not_matched(net):
+def test_a_checked_reported_position_is_used_and_the_matcher_kept_warm(net):
     an = Analyser(track_map=net)
     for r in _along(net, "B", 500.0, 10.0, offset_shift_m=6.0):
         an.update(r)
@@ -49,7 +49,15 @@ def test_a_checked_reported_position_is_used_and_the_vehicle_is_not_matched(net)
     assert pos.offset_m == pytest.approx(500.0 + 70.0 + 6.0 + 5.0, abs=1e-6)
     assert pos.sigma_m == pytest.approx(2.0 + 0.3 * 0.5)
     assert an.reported is not None and an.reported.used == len(T)
-    assert an.positioner is not None and an.positioner.position("B") is None
+    # the matcher still follows B from its fixes, ready for reports without a position
+    assert an.positioner is not None
+    warm = an.positioner.position("B")
+    assert warm is not None and warm.offset_m == pytest.approx(570.0, abs=5.0)
+    plain = dataclasses.replace(_along(net, "B", 580.0, 10.0)[0], t=8.0, track_position=None)
+    an.update(plain)
+    after = an.position("B")
+    assert after is not None and after.status == "confident"
+    assert after.offset_m == pytest.approx(580.0, abs=5.0)
 
 
 @pytest.mark.parametrize(
@@ -129,3 +137,50 @@ def test_an_on_board_unit_sends_its_confident_track_position(net, tmp_path):
         x, y = net.point_at(r.track_position.edge_id, r.track_position.offset_m)
         fx, fy = net.to_local(r.lon, r.lat)
         assert np.hypot(x - fx, y - fy) < 15.0 and r.track_position.direction == 1
+
+
+def test_a_reported_position_is_not_carried_past_an_undecided_switch(tmp_path):
+    from tests._osm import switch_fixture
+
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    trunk = next(e for e in net.edges if e.way_ids == (1,))  # drawn north up to the switch
+    pts = [(0.0, -200.0), (0.0, 0.0), (0.0, 200.0)]
+    (r,) = reports_along("B", pts, start_m=197.0, speed_mps=10.0, t=[0.0], frame=FRAME)
+    r = dataclasses.replace(
+        r, track_position=ReportedTrackPosition(trunk.edge_id, trunk.length_m - 3.0, 1)
+    )
+    an = Analyser(track_map=net)
+    an.update(r)
+    pos = an.position("B", t=2.0)
+    # 20 m run, 3 m of it to the switch: it waits there, 17 m more uncertain
+    assert pos is not None and pos.edge_id == trunk.edge_id
+    assert pos.offset_m == pytest.approx(trunk.length_m)
+    assert pos.sigma_m == pytest.approx(2.0 + 0.3 * 2.0 + 17.0)
+    # with a route through the switch it follows the route
+    branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
+    routed = Analyser(track_map=net)
+    routed.update(dataclasses.replace(r, route=(trunk.edge_id, branch)))
+    on_route = routed.position("B", t=2.0)
+    assert on_route is not None and on_route.edge_id == branch
+    assert on_route.offset_m == pytest.approx(17.0, abs=0.1)
+
+
+def test_a_position_against_the_course_is_refused_and_one_without_a_fix_taken(net):
+    (e,) = net.edges
+    against = [
+        dataclasses.replace(r, track_position=ReportedTrackPosition(e.edge_id, 500.0 + 10 * k, -1))
+        for k, r in enumerate(
+            reports_along("B", LINE, start_m=500.0, speed_mps=10.0, t=T, frame=FRAME)
+        )
+    ]
+    an = Analyser(track_map=net)
+    for r in against:
+        an.update(r)
+    assert an.position("B") is not None
+    assert an.reported is not None and an.reported.rejected == {"against_course": len(T)}
+    # no fix (a tunnel: lat/lon are the last known ones): the sender's word is taken
+    tunnel = Analyser(track_map=net)
+    for r in _along(net, "B", 500.0, 10.0, offset_shift_m=45.0):
+        tunnel.update(dataclasses.replace(r, fix_quality=0))
+    assert tunnel.position("B") is not None
+    assert tunnel.reported is not None and tunnel.reported.used == len(T)

@@ -4,6 +4,7 @@ an assessment shows depends on that."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import trackmap
 from antikol.analysis.analyser import Analyser
@@ -75,3 +76,47 @@ def test_another_own_vehicle_on_board_sees_its_own_reach(tmp_path):
         room.update(r)
     assert an.assess("C") == room.assess("C")
     assert [th.vehicle_id for th in an.assess("C").threats] == ["D"]
+
+
+class _NanSigma:
+    """A position source whose positions of some vehicles have no usable sigma."""
+
+    def __init__(self, inner, vehicles):
+        self.inner, self.vehicles = inner, set(vehicles)
+
+    def update_many(self, reports, *, outputs=True):
+        return self.inner.update_many(reports, outputs=outputs)
+
+    def position(self, vehicle_id, t=None):
+        import dataclasses
+
+        pos = self.inner.position(vehicle_id, t)
+        if pos is not None and vehicle_id in self.vehicles:
+            pos = dataclasses.replace(pos, sigma_m=float("nan"))
+        return pos
+
+    def forget(self, vehicle_id):
+        self.inner.forget(vehicle_id)
+
+
+@pytest.mark.parametrize(
+    ("nan_for", "deferred", "method"),
+    [({"B"}, {"C"}, "track"), ({"A"}, {"B", "C"}, "sector"), (set(), {"C"}, "track")],
+)
+def test_a_position_with_a_nan_sigma_falls_back_to_the_sector_rule(
+    tmp_path, nan_for, deferred, method
+):
+    # a source's NaN sigma used to crash the pair evaluation (IndexError); such a position
+    # is now treated as lost, counted, and the sector rule judges that vehicle
+    from antikol.positioning.matcher import Positioner
+
+    net = straight_line(tmp_path)
+    source = _NanSigma(Positioner(net), nan_for)
+    an = Analyser(track_map=net, own_id="A", position_source=source)
+    for r in streams():
+        an.update(r)
+    a = an.assess()
+    assert an._cycle is not None and an._cycle.deferred == deferred
+    assert a.method == method
+    assert [th.vehicle_id for th in a.threats] == ["B"]  # B stands 120 m ahead either way
+    assert an.stats["position_unusable"] == (1 if nan_for else 0)

@@ -436,12 +436,17 @@ class Analyser:
         return self.update_many(self._nmea.feed_line(line))
 
     def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:
-        """Apply a discrete position fix (balise, loop crossing) to a vehicle."""
+        """Apply a discrete position fix (balise, loop crossing) to a vehicle; returns its
+        position as :meth:`position` gives it (a vehicle placed by its own reported track
+        position keeps it: the fix corrects the matcher's state behind it)."""
         if self.positioner is None:
             raise InvalidArgumentError("track_map", None, "discrete fixes need a track map")
         self._version += 1
         self._flush()
-        return self.positioner.fix(vehicle_id, fix)
+        matched = self.positioner.fix(vehicle_id, fix)
+        if matched is None or self.reported is None:
+            return matched
+        return self.position(vehicle_id, fix.t)
 
     def _table_update(self, report: VehicleReport) -> TableUpdate:
         result = self.table.update(report)
@@ -758,6 +763,11 @@ class Analyser:
             self._moving,
             owners=None if self.own_id is None else (self.own_id,),
         )
+        if cycle.unusable:
+            self.stats["position_unusable"] += cycle.unusable
+            logger.warning(
+                "%d track position(s) with non-finite numbers: sector rule for them", cycle.unusable
+            )
         self._cycle, self._cycle_version = cycle, self._version
         return cycle
 

@@ -16,6 +16,8 @@ so the cost of a cycle grows with the vehicles that can interact, not with the t
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections import defaultdict
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -174,13 +176,15 @@ class CycleViews:
     """Views of every vehicle at one time.
 
     Vehicles out of every owner's reach have no paths until :meth:`expand` is asked for
-    them.
+    them. ``unusable`` counts matched positions with numbers that are not finite (from a
+    position source): they were treated as lost, so the sector rule judges those vehicles.
     """
 
     t: float
     views: dict[str, VehicleView] = field(default_factory=dict)
     _passing: dict[int, set[str]] | None = None
     _pending: dict[str, list[_Chosen]] = field(default_factory=dict)
+    unusable: int = 0
     _net: TrackMap | None = None
     _branches: BranchModel | None = None
     _settings: ViewSettings | None = None
@@ -254,6 +258,12 @@ def build_views(
     """
     branches = BranchModel.for_map(net, settings.branches)
     cycle = CycleViews(t, _net=net, _branches=branches, _settings=settings)
+    positions = list(positions)
+    for k, pos in enumerate(positions):
+        if pos is not None and pos.matched and not _usable(pos):
+            # a position source gave numbers that are not numbers: the sector rule judges it
+            positions[k] = dataclasses.replace(pos, status="lost")
+            cycle.unusable += 1
     speeds = np.array(
         [
             (pos.speed_mps if pos is not None and pos.matched else r.speed_mps)
@@ -287,6 +297,14 @@ def build_views(
     for vid in _in_reach(net, cycle.views, chosen, owners):
         cycle.expand(vid)
     return cycle
+
+
+def _usable(pos: TrackPosition) -> bool:
+    """A matched position whose numbers the analysis can use (all finite)."""
+    values = (pos.offset_m, pos.speed_mps, pos.sigma_m if pos.sigma_m is not None else 0.0)
+    return all(v is not None and math.isfinite(v) for v in values) and all(
+        math.isfinite(h.offset_m) and math.isfinite(h.probability) for h in pos.hypotheses
+    )
 
 
 def _choose(pos: TrackPosition, settings: ViewSettings) -> list[_Chosen]:
@@ -325,12 +343,12 @@ def _in_reach(
     edges = [c.edge_id for v in ids for c in chosen[v]]
     offsets = [c.offset_m for v in ids for c in chosen[v]]
     x, y = net.points_at(edges, offsets)
-    reach = np.array([_reach_m(views[v]) for v in ids])[vehicle]
     is_owner = np.ones(len(ids), dtype=bool)
     if owners is not None:
         wanted = set(owners)
         is_owner = np.array([v in wanted for v in ids], dtype=bool)
     needed = {v for v, own in zip(ids, is_owner.tolist(), strict=True) if own} if owners else set()
+    reach = np.array([_reach_m(views[v]) for v in ids])[vehicle]
     xy = np.column_stack([x, y])
     if is_owner.sum() <= 8:
         rows = np.flatnonzero(is_owner[vehicle])

@@ -50,6 +50,7 @@ from antikol.ingest.protocol import decode_frame, encode_report, next_seq
 from antikol.onboard.receiver import SecureReceiver
 from antikol.onboard.sources import GpsSource, PacedSource, open_source
 from antikol.onboard.transport import DEFAULT_PORT, UdpTransport
+from antikol.positioning.reported import ReportedSettings
 from antikol.report import ReportedTrackPosition, VehicleReport
 
 __all__ = ["EventSink", "OnboardUnit", "UnitConfig", "open_log"]
@@ -451,26 +452,30 @@ class OnboardUnit:
             self.analyser = self._new_analyser()
         self._seq = next_seq(self._seq)
         keys = self.config.keys
+        signer = keys.signer if keys is not None else None
         try:
-            frame = encode_report(
-                self._with_track_position(newest),
-                seq=self._seq,
-                signer=keys.signer if keys is not None else None,
-            )
+            # the analyser sees what the others see: the report as the frame carries it
+            own = decode_frame(encode_report(newest, seq=self._seq))
+        except Exception:
+            self.counters.faults["encode_error"] += 1
+            logger.exception("own report cannot be encoded")
+            return
+        for report in [*fresh[:-1], own]:
+            self._update(report)
+        try:  # sent with the own track position that this very fix gave
+            frame = encode_report(self._with_track_position(own), seq=self._seq, signer=signer)
         except Exception:
             self.counters.faults["encode_error"] += 1
             logger.exception("own report cannot be encoded")
             return
         self.transport.send(frame)
         self.receiver.note_sent(frame)
-        own = decode_frame(frame)  # the analyser sees what the others see
         self._last_own, self._last_own_mono = own, time.monotonic()
-        for report in [*fresh[:-1], own]:
-            self._update(report)
         self._log("tx", own)
 
     def _with_track_position(self, report: VehicleReport) -> VehicleReport:
-        """The own report with the unit's own track position at its time, when confident:
+        """The own report with the unit's own track position at its time, when confident
+        and no more uncertain than receivers assume (``ReportedSettings.sigma_m``):
         receivers on the same map use it instead of matching this vehicle again."""
         if report.track_position is not None or self.analyser.track_map is None:
             return report
@@ -481,6 +486,9 @@ class OnboardUnit:
             logger.exception("own track position unavailable")
             return report
         if pos is None or pos.status != "confident" or pos.edge_id is None:
+            return report
+        assumed = self.analyser.config.reported_positions or ReportedSettings()
+        if pos.sigma_m is None or pos.sigma_m > assumed.sigma_m:
             return report
         if pos.offset_m is None or pos.direction is None:  # pragma: no cover - confident
             return report

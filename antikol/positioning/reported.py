@@ -8,16 +8,22 @@ spends most of its cycle doing it. :class:`ReportedFirst` uses a reported track 
 when it passes every check, and the receiver's own matching otherwise:
 
 * the edge exists on this map (the sender's map must be the same: edge ids are the map's);
-* the offset lies on the edge (``length_slack_m`` of rounding allowed) and the direction is
-  +1 or -1;
+* the offset lies on the edge (``length_slack_m`` of rounding allowed);
 * when the report carries a GPS fix, the reported place is within ``max_fix_distance_m``
-  of it (a sender on another map version, or a wrong position, shows here).
+  of it (a sender on another map version, or a wrong position, shows here); a report
+  without a fix (a tunnel) is taken on the sender's word, its odometer being better than
+  anything the receiver has;
+* when the vehicle moves, its reported course runs the reported direction of the track
+  (within 90 degrees): an edge drawn the other way on another map version shows here.
 
 Nothing received is trusted further than that: a refused track position is counted by
-reason (:attr:`ReportedFirst.rejected`) and the report goes to the matcher like any other.
-The own vehicle of an on-board unit is always matched by the unit itself (``exclude``). A
-used position is carried to the analysis time along the track at the reported speed, and
-its uncertainty grows with that time.
+reason (:attr:`ReportedFirst.rejected`). Every report still goes to the matcher, so that a
+vehicle that stops sending its position (an on-board unit sends it only while confident)
+is matched from a warm state. The own vehicle of an on-board unit is always matched by the
+unit itself (``exclude``). A used position is carried to the analysis time along the track
+at the reported speed, with an uncertainty growing with that time; it is not carried past
+a switch the report's route does not decide (it stops at the switch, its uncertainty grown
+by the distance it did not travel).
 """
 
 from __future__ import annotations
@@ -26,12 +32,15 @@ from collections import Counter
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
-from antikol.positioning.deadreckoning import advance
+from antikol.positioning.deadreckoning import Advanced, advance
 from antikol.positioning.records import Hypothesis, PositionSource, TrackPosition
-from antikol.report import VehicleReport
+from antikol.report import ReportedTrackPosition, VehicleReport
 from trackmap import TrackMap
 
 __all__ = ["ReportedFirst", "ReportedSettings"]
+
+#: Above this speed a report's course is checked against the reported direction, m/s.
+_MOVING_MPS = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,18 +105,22 @@ class ReportedFirst:
         length = self.net.edge_length(tp.edge_id)
         if tp.offset_m > length + self.settings.length_slack_m:
             return "offset_beyond_edge"
+        offset = min(tp.offset_m, length)
         if report.fix_quality != 0:
-            x, y = self.net.point_at(tp.edge_id, min(tp.offset_m, length))
+            x, y = self.net.point_at(tp.edge_id, offset)
             fx, fy = self.net.to_local(report.lon, report.lat)
             if ((fx - x) ** 2 + (fy - y) ** 2) ** 0.5 > self.settings.max_fix_distance_m:
                 return "far_from_fix"
+        if report.speed_mps >= _MOVING_MPS:
+            heading = self.net.heading_at(tp.edge_id, offset, tp.direction)
+            if abs((heading - report.course_deg + 180.0) % 360.0 - 180.0) > 90.0:
+                return "against_course"
         return None
 
     def update_many(
         self, reports: Sequence[VehicleReport], *, outputs: bool = True
     ) -> list[TrackPosition]:
-        """Take the usable reported positions; the other reports go to ``inner``."""
-        rest: list[VehicleReport] = []
+        """Take the usable reported positions; every report also goes to ``inner``."""
         for r in reports:
             reason = None if r.vehicle_id not in self.exclude else "absent"
             if reason is None:
@@ -119,9 +132,8 @@ class ReportedFirst:
             if reason != "absent":
                 self.rejected[reason] += 1
             self._latest.pop(r.vehicle_id, None)
-            rest.append(r)
-        if rest:
-            self.inner.update_many(rest, outputs=False)
+        if reports:
+            self.inner.update_many(reports, outputs=False)
         if not outputs:
             return []
         out = []
@@ -145,17 +157,38 @@ class ReportedFirst:
         self._latest.pop(vehicle_id, None)
         self.inner.forget(vehicle_id)
 
+    def _branches(self, tp: ReportedTrackPosition, offset: float, run_m: float) -> bool:
+        """Whether the track branches within ``run_m`` ahead of a reported position."""
+        wrong = not self.net.edges[tp.edge_id].allows(tp.direction)
+        paths = self.net.paths_ahead(
+            tp.edge_id, offset, tp.direction, run_m, respect_direction=not wrong, max_paths=2
+        )
+        return len(paths) > 1
+
     def _carried(self, report: VehicleReport, t: float) -> TrackPosition:
         tp = report.track_position
         if tp is None:  # pragma: no cover - only checked reports are kept
             raise RuntimeError("a kept report without a track position")
         edge = self.net.edges[tp.edge_id]
         offset = min(tp.offset_m, edge.length_m)
-        wrong = not edge.allows(tp.direction)
         dt = max(t - report.t, 0.0)
+        run_m = report.speed_mps * dt
         moved = advance(
-            self.net, tp.edge_id, offset, tp.direction, report.speed_mps * dt, report, wrong=wrong
+            self.net,
+            tp.edge_id,
+            offset,
+            tp.direction,
+            run_m,
+            report,
+            wrong=not edge.allows(tp.direction),
         )
+        undecided_m = 0.0
+        if moved.edge_id != tp.edge_id and not report.route and self._branches(tp, offset, run_m):
+            # a switch ahead that nothing decides: stop at it rather than guess a branch
+            end = edge.length_m if tp.direction == 1 else 0.0
+            undecided_m = run_m - abs(end - offset)
+            moved = Advanced(tp.edge_id, end, tp.direction)
+        wrong = not self.net.edges[moved.edge_id].allows(moved.direction)
         x, y = self.net.point_at(moved.edge_id, moved.offset_m)
         lon, lat = self.net.to_lonlat(x, y)
         s = self.settings
@@ -182,7 +215,7 @@ class ReportedFirst:
             heading_deg=self.net.heading_at(moved.edge_id, moved.offset_m, moved.direction),
             speed_mps=report.speed_mps,
             probability=1.0,
-            sigma_m=s.sigma_m + s.speed_sigma_mps * dt,
+            sigma_m=s.sigma_m + s.speed_sigma_mps * dt + undecided_m,
             wrong_way=wrong,
             hypotheses=(hyp,),
             dead_reckoned_s=dt,

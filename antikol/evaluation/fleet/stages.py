@@ -87,8 +87,8 @@ from antikol.positioning.config import PositioningConfig
 from antikol.report import VehicleReport
 from antikol.thresholds import EXPIRY_S
 
-#: How long a vehicle stays in the analysers' memory without reporting, s (dead reckoning).
-_TABLE_MEMORY_S = 30.0
+#: How long a vehicle stays in the analysers' memory without reporting, s.
+_TABLE_MEMORY_S = max(EXPIRY_S, PositioningConfig().dead_reckoning_s)
 
 __all__ = [
     "EVENT_FIELDS",
@@ -553,6 +553,7 @@ def analyse_window(
     sector_only: dict[tuple[int, int], Counter[str]] = defaultdict(Counter)
     vehicle_cycles = 0
     unsettled: tuple[tuple[str, str], ...] = ()
+    checked = False  # at the first cycle of the window that has reports
     for t_end, batch in cycles(reports, c):
         k = cycle_index(t_end, c)
         for r in batch:
@@ -570,8 +571,9 @@ def analyse_window(
                 results[name] = an.assess_all(t=t_end)
         if k < lo:
             continue
-        if k == lo and track is not None and warm > config.first_cycle(day):
+        if not checked and track is not None and warm > config.first_cycle(day):
             unsettled = _unsettled(track, warm, config, day, window, cell)
+        checked = True
         main = results["track" if track is not None else "sector"]
         table = (track if track is not None else sector).table
         for own in main:
