@@ -17,6 +17,14 @@ PACKAGE = Path(__file__).resolve().parent.parent / "antikol"
 FLOW = ("ingest", "table", "positioning", "analysis")
 #: Built on the flow; no stage may import them.
 APPLICATIONS = ("onboard", "serve", "evaluation", "sim", "cli")
+#: What every stage may use: errors, kinds, numbers, the report record, thresholds.
+BASE = (
+    "antikol.errors",
+    "antikol.kinds",
+    "antikol.numeric",
+    "antikol.report",
+    "antikol.thresholds",
+)
 #: The one import against the flow: the table keeps the nearest vehicles by the paper's
 #: planar distance (formulas 4-9), which live with the rest of the paper's geometry.
 ALLOWED_BACKWARDS = {("antikol.table", "antikol.analysis.geometry")}
@@ -47,6 +55,24 @@ def test_the_data_flow_runs_one_way():
         if sb in APPLICATIONS or (sb in FLOW and FLOW.index(sb) > FLOW.index(sa)):
             backwards.append(f"{a} -> {b}")
     assert backwards == []
+
+
+def test_the_base_imports_only_the_base():
+    g = import_graph(PACKAGE)
+    assert {m: sorted(set(g.successors(m)) - set(BASE)) for m in BASE} == {m: [] for m in BASE}
+
+
+def test_no_relative_imports_hide_from_the_graph():
+    # the graph follows absolute imports only; the code base writes no relative ones
+    import ast
+
+    relative = [
+        str(p.relative_to(PACKAGE))
+        for p in PACKAGE.rglob("*.py")
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
+        if isinstance(node, ast.ImportFrom) and node.level > 0
+    ]
+    assert relative == []
 
 
 def test_every_stage_is_seen():
