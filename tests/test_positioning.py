@@ -188,11 +188,19 @@ def test_a_position_carried_past_a_switch_takes_the_branch_the_hypotheses_hold(t
     start = trunk.length_m - 1.0
     plain = advance(net, trunk.edge_id, start, toward_toe, 4.0, None, wrong=False)
     assert plain.edge_id == straight and plain.branch_share == 1.0
-    held = {trunk.edge_id: 0.5, branch: 0.3, straight: 0.2}
+    held = {(trunk.edge_id, 1): 0.5, (branch, 1): 0.3, (straight, 1): 0.2}
     moved = advance(net, trunk.edge_id, start, toward_toe, 4.0, None, wrong=False, edge_mass=held)
     assert moved.edge_id == branch
     assert moved.offset_m == pytest.approx(3.0, abs=0.5)
     assert moved.branch_share == pytest.approx(0.3 / 0.5)
+    # a hypothesis running the other way on a branch is no vote for it
+    against = {(trunk.edge_id, 1): 0.5, (branch, -1): 0.3, (straight, 1): 0.2}
+    assert (
+        advance(
+            net, trunk.edge_id, start, toward_toe, 4.0, None, wrong=False, edge_mass=against
+        ).edge_id
+        == straight
+    )
     # staying on the edge is no branch decision
     on_trunk = advance(net, trunk.edge_id, 10.0, toward_toe, 4.0, None, wrong=False, edge_mass=held)
     assert on_trunk.edge_id == trunk.edge_id and on_trunk.branch_share == 1.0

@@ -154,7 +154,7 @@ def advance(
     report: VehicleReport | None,
     *,
     wrong: bool,
-    edge_mass: Mapping[int, float] | None = None,
+    edge_mass: Mapping[tuple[int, int], float] | None = None,
 ) -> Advanced:
     """Move a track position by a signed distance along its most probable path.
 
@@ -169,9 +169,10 @@ def advance(
         Its planned route, when it has one, chooses the branch.
     wrong : bool
         Running against the permitted direction (physical moves only).
-    edge_mass : mapping of int to float, optional
-        Probability held by other hypotheses on each edge: without a route, the path
-        holding the most of it is taken at a switch (the straightest on a tie).
+    edge_mass : mapping of (int, int) to float, optional
+        Probability held by other hypotheses in each (edge, direction) state: without a
+        route, the path holding the most of it is taken at a switch (the straightest on a
+        tie).
 
     Returns
     -------
@@ -205,21 +206,30 @@ def advance(
     return Advanced(edge, min(max(moved, 0.0), length), direction)
 
 
-def _share(paths: list[Path], taken: Path, edge_mass: Mapping[int, float] | None) -> float:
+def _states(path: Path) -> set[tuple[int, int]]:
+    """The (edge, direction) states a path runs through beyond its start edge."""
+    return {(st.edge_id, int(st.direction)) for st in path.steps[1:]}
+
+
+def _share(
+    paths: list[Path], taken: Path, edge_mass: Mapping[tuple[int, int], float] | None
+) -> float:
     if not edge_mass or len(paths) < 2:
         return 1.0
-    beyond = {e for p in paths for e in p.edges[1:]}
-    everywhere = sum(edge_mass.get(e, 0.0) for e in beyond)
+    beyond = set().union(*(_states(p) for p in paths))
+    everywhere = sum(edge_mass.get(s, 0.0) for s in beyond)
     if everywhere <= 0.0:
         return 1.0
-    return sum(edge_mass.get(e, 0.0) for e in set(taken.edges[1:])) / everywhere
+    return sum(edge_mass.get(s, 0.0) for s in _states(taken)) / everywhere
 
 
-def edge_mass(hypotheses: Iterable[Hypothesis]) -> dict[int, float]:
-    """Probability held by the hypotheses on each edge (for :func:`advance`)."""
-    mass: dict[int, float] = {}
+def edge_mass(hypotheses: Iterable[Hypothesis]) -> dict[tuple[int, int], float]:
+    """Probability held by the hypotheses in each (edge, direction) state (for
+    :func:`advance`: a hypothesis running the other way on a branch is no vote for it)."""
+    mass: dict[tuple[int, int], float] = {}
     for h in hypotheses:
-        mass[h.edge_id] = mass.get(h.edge_id, 0.0) + h.probability
+        key = (h.edge_id, h.direction)
+        mass[key] = mass.get(key, 0.0) + h.probability
     return mass
 
 
@@ -227,11 +237,12 @@ def preferred_path(
     paths: list[Path],
     route: tuple[int, ...] | None,
     *,
-    edge_mass: Mapping[int, float] | None = None,
+    edge_mass: Mapping[tuple[int, int], float] | None = None,
 ) -> Path:
     """The path a vehicle most probably takes: along its route, else the one holding the
-    most probability of other hypotheses (``edge_mass``: edge id to probability; the start
-    edge, shared by every path, does not count), else the straightest."""
+    most probability of other hypotheses (``edge_mass``: (edge id, direction) to
+    probability; the start edge, shared by every path, does not count), else the
+    straightest."""
     if route:
         on_route = set(route)
         scored = [(sum(1 for e in p.edges if e in on_route), p) for p in paths]
@@ -239,7 +250,7 @@ def preferred_path(
         if top > 1:
             return next(p for s, p in scored if s == top)
     if edge_mass and len(paths) > 1:
-        held = [sum(edge_mass.get(e, 0.0) for e in set(p.edges[1:])) for p in paths]
+        held = [sum(edge_mass.get(s, 0.0) for s in _states(p)) for p in paths]
         best = max(held)
         if best > 0.0:
             paths = [p for p, m in zip(paths, held, strict=True) if m == best]
