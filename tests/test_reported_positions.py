@@ -7,6 +7,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol import Analyser, AnalyserConfig, ReportedTrackPosition
@@ -184,3 +186,38 @@ def test_a_position_against_the_course_is_refused_and_one_without_a_fix_taken(ne
         tunnel.update(dataclasses.replace(r, fix_quality=0))
     assert tunnel.position("B") is not None
     assert tunnel.reported is not None and tunnel.reported.used == len(T)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    edge=st.integers(min_value=0, max_value=5),
+    offset=st.floats(min_value=0.0, max_value=5000.0),
+    direction=st.sampled_from([1, -1]),
+    along=st.floats(min_value=-100.0, max_value=2100.0),
+    speed=st.floats(min_value=0.0, max_value=30.0),
+    course=st.floats(min_value=0.0, max_value=359.9),
+    fix_quality=st.sampled_from([None, 0, 1, 4]),
+    later_s=st.floats(min_value=0.0, max_value=9.0),  # within the 10 s expiry
+)
+def test_any_reported_position_is_used_or_refused_never_raised(
+    net, edge, offset, direction, along, speed, course, fix_quality, later_s
+):
+    (r,) = reports_along("B", LINE, start_m=max(along, 0.0), speed_mps=0.0, t=[0.0], frame=FRAME)
+    r = dataclasses.replace(
+        r,
+        speed_mps=speed,
+        course_deg=course,
+        fix_quality=fix_quality,
+        track_position=ReportedTrackPosition(edge, offset, direction),
+    )
+    an = Analyser(track_map=net, own_id="A")
+    (own,) = reports_along("A", LINE, start_m=10.0, speed_mps=5.0, t=[0.0], frame=FRAME)
+    an.update(own)
+    an.update(r)
+    a = an.assess(t=later_s)
+    pos = an.position("B", t=later_s)
+    assert pos is not None and a.own_id == "A"
+    assert an.reported is not None and an.reported.used + sum(an.reported.rejected.values()) == 1
+    if an.reported.used:
+        assert pos.sigma_m is not None and pos.sigma_m >= 2.0
+        assert 0.0 <= pos.offset_m <= net.edge_length(pos.edge_id) + 1e-6
