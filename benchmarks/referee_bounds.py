@@ -13,7 +13,10 @@ lamps** built from the referee's own ground truth and scored by its own scorer:
 * ``oracle, lead L s``: the pair alarm is on at every required second and from ``L``
   seconds before the start of every counted episode (a lamp that knows the future);
 * ``oracle, widest``: on at every second the scorer does not count as nuisance (10 s
-  before to 5 s after any required second): the fewest toggles possible without nuisance.
+  before to 5 s after any required second): the fewest toggles possible without nuisance;
+* ``oracle, widest, gaps <= G s bridged``: the same lamp kept on through every off-time of
+  up to G s: fewer toggles bought with nuisance (bridging the shortest gaps first is the
+  cheapest way to buy them).
 
 It then runs ``antikol.Analyser(track_map=...)`` as the referee does and splits its false
 alarms and lamp-on nuisance by what raised them: a conflict that depends on a branch the
@@ -24,6 +27,7 @@ a definite one.
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 from collections import Counter, defaultdict
 from pathlib import Path
@@ -53,7 +57,15 @@ def _need(truth) -> dict[str, set[int]]:
     return need
 
 
-def _oracle(score_mod, res, truth, episodes, lead_s: int | None):
+def _bridge(lamp: set[int], gap_s: int) -> None:
+    """Keep a lamp on through every off-time of at most ``gap_s`` seconds."""
+    ks = sorted(lamp)
+    for a, b in itertools.pairwise(ks):
+        if 1 < b - a <= gap_s + 1:
+            lamp.update(range(a + 1, b))
+
+
+def _oracle(score_mod, res, truth, episodes, lead_s: int | None, bridge_s: int = 0):
     alarms = score_mod.Alarms()
     for (a, b), p in truth.pairs.items():
         ks = (p.k0 + np.flatnonzero(p.required)).tolist()
@@ -66,6 +78,8 @@ def _oracle(score_mod, res, truth, episodes, lead_s: int | None):
         span = range(k - lead_s, k + 1)
         alarms.pair[(e["a"], e["b"])].update(span)
         alarms.lamp[e["a"]].update(span)
+    for lamp in alarms.lamp.values():
+        _bridge(lamp, bridge_s)
     return score_mod.score(res, truth, alarms)
 
 
@@ -140,6 +154,9 @@ def main() -> None:
             ("oracle, widest", None),
         ):
             rows.append((seed, name, _oracle(score_mod, res, truth, episodes, lead)))
+        for gap in (30, 120):
+            m = _oracle(score_mod, res, truth, episodes, None, bridge_s=gap)
+            rows.append((seed, f"oracle, widest, gaps <= {gap} s bridged", m))
         if net is not None:
             alarms, threats = _run_analyser(score_mod, res, net)
             m = score_mod.score(res, truth, alarms, keep_episodes=True)
