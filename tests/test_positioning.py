@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 
 import numpy as np
@@ -79,7 +80,7 @@ def test_dead_reckoning_then_lost(straight):
     assert pos.position("V", 30.0).status == "lost"
 
 
-def test_both_branches_stay_alive_past_a_switch_until_separated(tmp_path):
+def test_past_a_switch_the_position_waits_at_it_until_the_branch_is_decided(tmp_path):
     net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
     branch_pts = [
         (0.0, -200.0),
@@ -95,14 +96,25 @@ def test_both_branches_stay_alive_past_a_switch_until_separated(tmp_path):
     out = drive(pos, reports_along("V", branch_pts, start_m=170.0, speed_mps=6.0, t=t, frame=FRAME))
     branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
     straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
-    # just past the switch: beyond the node itself (where every branch is the same place)
-    just_past = next(
+    trunk = next(e for e in net.edges if e.way_ids == (1,))
+    # just past the switch, both branches alive and undecided: reported at the switch itself
+    # (every branch starts there)
+    held = [
         p
         for p in out
-        if p.offset_m is not None and p.edge_id in (branch, straight) and 3.0 < p.offset_m < 10.0
-    )
-    alive = {h.edge_id for h in just_past.hypotheses}
-    assert {branch, straight} <= alive and just_past.status == "ambiguous"
+        if p.edge_id == trunk.edge_id
+        and p.offset_m == pytest.approx(trunk.length_m)
+        and {branch, straight} <= {h.edge_id for h in p.hypotheses}
+    ]
+    assert held
+    # every position follows from the one before by a permitted move: no jump between branches
+    for p, q in itertools.pairwise(out):
+        if p.edge_id is not None and q.edge_id is not None and p.offset_m is not None:
+            assert q.offset_m is not None and q.direction is not None
+            step = net.route_distance(
+                p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
+            )
+            assert step is not None, (p, q)
     assert out[-1].edge_id == branch and out[-1].status == "confident"
 
 
@@ -204,3 +216,31 @@ def test_a_position_carried_past_a_switch_takes_the_branch_the_hypotheses_hold(t
     # staying on the edge is no branch decision
     on_trunk = advance(net, trunk.edge_id, 10.0, toward_toe, 4.0, None, wrong=False, edge_mass=held)
     assert on_trunk.edge_id == trunk.edge_id and on_trunk.branch_share == 1.0
+
+
+def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
+    from antikol.positioning.branching import Arrivals, hold_at_switch
+    from antikol.positioning.records import Hypothesis
+
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    trunk = next(e for e in net.edges if e.way_ids == (1,))
+    branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
+    straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
+    arrivals = Arrivals(net)
+
+    def hyps(p_branch: float, at_m: float) -> list[Hypothesis]:
+        return [
+            Hypothesis(branch, 1, at_m, p_branch, 0.0),
+            Hypothesis(straight, 1, at_m, 1.0 - p_branch, 0.0),
+        ]
+
+    # undecided: at the switch on the trunk, 6 m more uncertain
+    assert hold_at_switch(arrivals, hyps(0.6, 6.0), branch, 6.0, 1) == (
+        trunk.edge_id,
+        trunk.length_m,
+        1,
+        6.0,
+    )
+    assert hold_at_switch(arrivals, hyps(0.95, 6.0), branch, 6.0, 1) is None  # decided
+    assert hold_at_switch(arrivals, hyps(0.6, 50.0), branch, 50.0, 1) is None  # far past it
+    assert hold_at_switch(arrivals, hyps(1.0, 6.0)[:1], branch, 6.0, 1) is None  # no rival

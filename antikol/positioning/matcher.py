@@ -46,6 +46,7 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.kinds import PositionStatus
+from antikol.positioning.branching import Arrivals, hold_at_switch
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
@@ -113,6 +114,7 @@ class Positioner:
         self.config = config or PositioningConfig()
         self.reach = ReachTable.for_map(track_map, reach_m=self.config.reach_m)
         self.stats: Counter[str] = Counter()
+        self._arrivals = Arrivals(track_map)
         self.fixes = DiscreteFixes(track_map, self.config, fix_points, fix_equipped)
         self._k = self.config.max_hypotheses
         self._row: dict[str, int] = {}
@@ -628,9 +630,12 @@ class Positioner:
             edge_mass=edge_mass(hyps),
         )
         edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
+        place_p = float(self._f.place[row]) * moved.branch_share
+        if (held := hold_at_switch(self._arrivals, hyps, edge, off, direction)) is not None:
+            edge, off, direction, past_m = held
+            s_std, place_p = s_std + past_m, float(self._f.place[row])
         x, y = self.net.point_at(edge, off)
         lon, lat = self.net.to_lonlat(x, y)
-        place_p = float(self._f.place[row]) * moved.branch_share
         age = t - float(self._f.t_fix[row])
         odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
         if math.isfinite(odometer_run):
