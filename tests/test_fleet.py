@@ -21,7 +21,7 @@ from antikol.errors import InvalidArgumentError  # noqa: E402
 from antikol.evaluation import fleet as fl  # noqa: E402
 from antikol.evaluation.fleet import run as fleet_run  # noqa: E402
 from antikol.evaluation.fleet.stages import load_map_cached  # noqa: E402
-from antikol.evaluation.replay import replay  # noqa: E402
+from antikol.evaluation.replay import event_values, replay  # noqa: E402
 from antikol.ingest.replaylog import ReplayLog  # noqa: E402
 from antikol.sim import Simulator, fleet  # noqa: E402
 
@@ -95,22 +95,7 @@ def _plain(reports, track_map) -> list[dict]:
     rows: list[dict] = []
 
     def on(a):
-        for th in a.threats:
-            rows.append(
-                {
-                    "t": a.t,
-                    "own_id": a.own_id,
-                    "other_id": th.vehicle_id,
-                    "level": th.level,
-                    "kind": th.kind,
-                    "distance_m": th.distance_m,
-                    "method": th.method,
-                    "zone": th.zone,
-                    "closing_speed_mps": th.closing_speed_mps,
-                    "ttc_s": th.ttc_s,
-                    "probability": th.probability,
-                }
-            )
+        rows.extend({k: event_values(a, th)[k] for k in COMPARED} for th in a.threats)
 
     replay(ReplayLog(reports=list(reports)), an, on_assessment=on)
     return sorted(rows, key=lambda r: (r["t"], r["own_id"], r["other_id"]))

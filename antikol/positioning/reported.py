@@ -122,9 +122,7 @@ class ReportedFirst:
     ) -> list[TrackPosition]:
         """Take the usable reported positions; every report also goes to ``inner``."""
         for r in reports:
-            reason = None if r.vehicle_id not in self.exclude else "absent"
-            if reason is None:
-                reason = self.check(r)
+            reason = "absent" if r.vehicle_id in self.exclude else self.check(r)
             if reason is None:
                 self._latest[r.vehicle_id] = r
                 self.used += 1
