@@ -17,9 +17,11 @@ PACKAGE = Path(__file__).resolve().parent.parent / "antikol"
 FLOW = ("ingest", "table", "positioning", "analysis")
 #: Built on the flow; no stage may import them.
 APPLICATIONS = ("onboard", "serve", "evaluation", "sim", "cli")
-#: What every stage may use: errors, kinds, numbers, the report record, thresholds.
+#: What every stage may use: errors, the collector pause, kinds, numbers, the report
+#: record, thresholds.
 BASE = (
     "antikol.errors",
+    "antikol.gcpause",
     "antikol.kinds",
     "antikol.numeric",
     "antikol.report",

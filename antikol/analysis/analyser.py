@@ -49,6 +49,7 @@ from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
 from antikol.analysis.threats import suppression_reason, track_threat
 from antikol.analysis.views import CycleViews, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
+from antikol.gcpause import gc_paused
 from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
@@ -366,6 +367,7 @@ class Analyser:
         """
         return self.update_many([report])[0]
 
+    @gc_paused
     def update_many(self, reports: Sequence[VehicleReport]) -> list[TableUpdate]:
         """Feed many reports at once (one analysis cycle of a fleet).
 
@@ -512,11 +514,13 @@ class Analyser:
         :meth:`assess_all` does first; returns their ids (fleet-scale positioning)."""
         return self._expire(float(t))
 
+    @gc_paused
     def assess_all(self, *, t: float | None = None) -> dict[str, Assessment]:
         """Assessments of every vehicle in the table (control-room use)."""
         self._expire(t)
         return {vid: self.assess(vid, t=t) for vid in self.table.vehicle_ids()}
 
+    @gc_paused
     def assess(self, own_id: str | None = None, *, t: float | None = None) -> Assessment:
         """Assess the threats to one vehicle.
 

@@ -33,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.analysis.conflicts import Finding, RuleSettings
+from antikol.analysis.runs import expand_rows, first_worst, group_of, max_of_runs, run_starts
 from antikol.analysis.views import CycleViews, VehicleView
 from antikol.kinds import LEVELS, Level, ThreatKind
 from trackmap import Path, TrackMap
@@ -362,7 +363,7 @@ class PairEvaluator:
         t_cid = app["cid"][theirs]
         lo = np.searchsorted(t_cid, app["cid"][mine], side="left")
         hi = np.searchsorted(t_cid, app["cid"][mine], side="right")
-        a, b = _expand(mine, lo, hi, theirs)
+        a, b = expand_rows(mine, lo, hi, theirs)
         keep = app["veh"][a] != app["veh"][b]
         # conflict_kind: a merge between different branches, a crossing between lines
         # without a shared edge
@@ -409,7 +410,7 @@ class PairEvaluator:
         )  # fmt: skip
         # per own approach and other hypothesis: the most probable way of each level
         g = app["hyp"][b]
-        starts = _starts(a, g)
+        starts = run_starts(a, g)
         summary = self._summaries(found, app["prob"][b], trusted, starts)
         s_app, s_g = a[starts], g[starts]
         # ... per own path and other hypothesis: every approach of the path, in order
@@ -418,12 +419,12 @@ class PairEvaluator:
         s_app_sorted = s_app[order]
         lo = np.searchsorted(s_app_sorted, link["app"], side="left")
         hi = np.searchsorted(s_app_sorted, link["app"], side="right")
-        l_row, s_row = _expand(np.arange(len(link["app"])), lo, hi, order)
+        l_row, s_row = expand_rows(np.arange(len(link["app"])), lo, hi, order)
         l_path = link["path"][l_row]
         s_hyp = s_g[s_row]
         sort = np.lexsort((l_row, s_hyp, l_path))
         l_path, s_hyp, s_row = l_path[sort], s_hyp[sort], s_row[sort]
-        groups = _starts(l_path, s_hyp)
+        groups = run_starts(l_path, s_hyp)
         per_path = _combine(found, summary, s_row, groups)
         return found, {"path": l_path[groups], "g": s_hyp[groups], "summary": per_path}
 
@@ -437,7 +438,7 @@ class PairEvaluator:
         edges = hyp["edge"][by_edge]
         lo = np.searchsorted(edges, step["edge"][mine], side="left")
         hi = np.searchsorted(edges, step["edge"][mine], side="right")
-        s, g = _expand(mine, lo, hi, by_edge)
+        s, g = expand_rows(mine, lo, hi, by_edge)
         h = s_hyp[s]
         off = hyp["off"][g]
         keep = (
@@ -450,7 +451,7 @@ class PairEvaluator:
         # the first step of each path on the other's edge (path order)
         sort = np.lexsort((s, g, p))
         s, g, h, p, off = s[sort], g[sort], h[sort], p[sort], off[sort]
-        first = _starts(p, g)
+        first = run_starts(p, g)
         s, g, h, p, off = s[first], g[first], h[first], p[first], off[first]
         distance = step["start"][s] + np.abs(off - step["enter"][s])
         same_way = step["dir"][s] == hyp["dir"][g]
@@ -531,12 +532,12 @@ class PairEvaluator:
             )
         zero = np.zeros_like(weight)
         return _Summaries(
-            _max_at(weight, starts),
-            _max_at(np.where(alarm, weight, zero), starts),
-            _max_at(np.where(rank == _EMERGENCY, weight, zero), starts),
-            _max_at(np.where(hold, weight, zero), starts),
-            _first_worst(idx, rank, margin, starts, np.ones(len(idx), dtype=bool)),
-            _first_worst(idx, rank, margin, starts, alarm),
+            max_of_runs(weight, starts),
+            max_of_runs(np.where(alarm, weight, zero), starts),
+            max_of_runs(np.where(rank == _EMERGENCY, weight, zero), starts),
+            max_of_runs(np.where(hold, weight, zero), starts),
+            first_worst(idx, rank, margin, starts, np.ones(len(idx), dtype=bool)),
+            first_worst(idx, rank, margin, starts, alarm),
         )
 
     def _decide(
@@ -565,8 +566,8 @@ class PairEvaluator:
         summary = _pick(summary, sort)
         if len(path) == 0:
             return {}
-        starts = _starts(own, other)
-        group = _group_of(len(path), starts)
+        starts = run_starts(own, other)
+        group = group_of(len(path), starts)
         n_groups = len(starts)
         weight = flat.hyp["prob"][h] * flat.hyp["prob"][g] * flat.path["prob"][path]
 
@@ -576,38 +577,54 @@ class PairEvaluator:
         any_w, alarm_w = total(summary.any), total(summary.alarm)
         emergency_w, hold_w = total(summary.emergency), total(summary.hold)
         pos = np.arange(len(path))
-        worst_at = _first_worst(
+        worst_at = first_worst(
             pos, found.rank[summary.worst], found.margin[summary.worst], starts,
             np.ones(len(pos), dtype=bool),
         )  # fmt: skip
         has_alarm = summary.worst_alarm >= 0
         alarm_rows = np.where(has_alarm, summary.worst_alarm, 0)
-        alarm_at = _first_worst(
+        alarm_at = first_worst(
             pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm
         )
+        # the shown row of each group: its most severe alarm-level finding when the alarm
+        # weight is reached, else its most severe finding (shown as an advisory at most)
+        raised = (alarm_at >= 0) & (
+            (alarm_w >= st.warning_probability) | (emergency_w >= st.emergency_probability)
+        )
+        at = np.where(raised, alarm_at, worst_at)
+        row = np.where(raised, summary.worst_alarm[at], summary.worst[at])
+        level_code = np.where(
+            raised, found.rank[row], np.where(found.rank[row] != _NONE, _ADVISORY, _NONE)
+        )
+        weight_shown = np.where(raised, alarm_w, any_w)
+        unsure = np.array(
+            [v.position is not None and v.position.status == "ambiguous" for v in flat.views],
+            dtype=bool,
+        )
+        own_g, other_g = own[starts], other[starts]
+        ambiguous = (any_w < 0.999) | unsure[own_g] | unsure[other_g]
+        hold = hold_w >= st.warning_probability
+        shown = _Shown.of(found, row)
         out: dict[str, dict[str, PairOutcome]] = {}
         views, paths = flat.views, flat.paths
-        for k in range(n_groups):
-            own_view, other_view = views[own[starts[k]]], views[other[starts[k]]]
-            hold = bool(hold_w[k] >= st.warning_probability)
-            any_weight = float(any_w[k])
-            ambiguous = any_weight < 0.999 or any(
-                p is not None and p.status == "ambiguous"
-                for p in (own_view.position, other_view.position)
+        for k, (o, t, pth, lv, w, hd, amb) in enumerate(
+            zip(
+                own_g.tolist(),
+                other_g.tolist(),
+                path[at].tolist(),
+                level_code.tolist(),
+                weight_shown.tolist(),
+                hold.tolist(),
+                ambiguous.tolist(),
+                strict=True,
             )
-            a = alarm_at[k]
-            if a >= 0 and (
-                alarm_w[k] >= st.warning_probability or emergency_w[k] >= st.emergency_probability
-            ):
-                f = _finding(found, int(summary.worst_alarm[a]), paths[path[a]], other_view)
-                outcome = PairOutcome(f.level, f, float(alarm_w[k]), hold, ambiguous)
-            else:
-                w = worst_at[k]
-                row = int(summary.worst[w])
-                level: Level = "advisory" if found.rank[row] != _NONE else "none"
-                f = _finding(found, row, paths[path[w]], other_view, level=level)
-                outcome = PairOutcome(level, f, any_weight, hold, ambiguous)
-            out.setdefault(own_view.vehicle_id, {})[other_view.vehicle_id] = outcome
+        ):
+            other_view = views[t]
+            level = LEVELS[lv]
+            f = shown.finding(k, paths[pth].zone, other_view.vehicle_id, level)
+            out.setdefault(views[o].vehicle_id, {})[other_view.vehicle_id] = PairOutcome(
+                level, f, w, hd, amb
+            )
         return out
 
 
@@ -623,51 +640,20 @@ def _combine(found: _Findings, parts: _Summaries, rows: IntArray, starts: IntArr
     the first most severe of the worst rows."""
     sel = _pick(parts, rows)
     pos = np.arange(len(rows))
-    worst_at = _first_worst(
+    worst_at = first_worst(
         pos, found.rank[sel.worst], found.margin[sel.worst], starts, np.ones(len(pos), bool)
     )
     has_alarm = sel.worst_alarm >= 0
     alarm_rows = np.where(has_alarm, sel.worst_alarm, 0)
-    alarm_at = _first_worst(
-        pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm
-    )
+    alarm_at = first_worst(pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm)
     return _Summaries(
-        _max_at(sel.any, starts),
-        _max_at(sel.alarm, starts),
-        _max_at(sel.emergency, starts),
-        _max_at(sel.hold, starts),
+        max_of_runs(sel.any, starts),
+        max_of_runs(sel.alarm, starts),
+        max_of_runs(sel.emergency, starts),
+        max_of_runs(sel.hold, starts),
         sel.worst[worst_at],
         np.where(alarm_at >= 0, sel.worst_alarm[np.maximum(alarm_at, 0)], -1),
     )
-
-
-def _max_at(x: FloatArray, starts: IntArray) -> FloatArray:
-    """Maxima of the runs starting at ``starts``."""
-    return np.maximum.reduceat(x, starts) if len(starts) else x[:0].copy()
-
-
-def _first_worst(
-    idx: IntArray, rank: IntArray, margin: FloatArray, starts: IntArray, eligible: BoolArray
-) -> IntArray:
-    """Per group (``starts``) the position of the most severe eligible row — highest rank,
-    then smallest margin, then first — or -1 when none is eligible."""
-    n = len(idx)
-    if n == 0 or len(starts) == 0:
-        return np.zeros(len(starts), dtype=np.int64)
-    group = _group_of(n, starts)
-    top = np.maximum.reduceat(np.where(eligible, rank, -1), starts)
-    best = eligible & (rank == top[group])
-    tight = np.minimum.reduceat(np.where(best, margin, np.inf), starts)
-    best &= margin == tight[group]
-    first = np.minimum.reduceat(np.where(best, np.arange(n), n), starts)
-    return np.where(top >= 0, first, -1)
-
-
-def _group_of(n: int, starts: IntArray) -> IntArray:
-    """The group number of each of ``n`` rows, groups starting at ``starts``."""
-    mark = np.zeros(n, dtype=np.int64)
-    mark[starts[1:]] = 1
-    return np.cumsum(mark)
 
 
 def _findings(
@@ -695,31 +681,54 @@ def _append(found: _Findings, more: _Findings) -> int:
     return first
 
 
-def _finding(
-    found: _Findings, row: int, path: Path, other: VehicleView, *, level: Level | None = None
-) -> Finding:
-    kind = _KINDS[int(found.kind[row])]
-    gap = float(found.gap[row])
-    if kind == "rear_end":
-        detail = f"{other.vehicle_id} ahead on the same track at {gap:.0f} m"
-    elif kind == "head_on":
-        detail = f"{other.vehicle_id} ahead, running towards us at {gap:.0f} m"
-    else:
-        where = "switch" if kind == "merge" else "crossing"
-        detail = f"{other.vehicle_id} can reach the same {where} (we are {gap:.0f} m away)"
-    if found.capped[row]:
-        detail += " (unconfirmed)"
-    ttc = float(found.ttc[row])
-    return Finding(
-        kind,
-        LEVELS[int(found.rank[row])] if level is None else level,
-        gap,
-        float(found.margin[row]),
-        float(found.closing[row]),
-        None if ttc != ttc else ttc,
-        path.zone,
-        detail,
-    )
+@dataclass(frozen=True, slots=True)
+class _Shown:
+    """The findings shown by the groups of a time, as lists (one row per group)."""
+
+    kind: list[int]
+    rank: list[int]
+    capped: list[bool]
+    gap: list[float]
+    margin: list[float]
+    closing: list[float]
+    ttc: list[float]
+
+    @classmethod
+    def of(cls, found: _Findings, rows: IntArray) -> _Shown:
+        return cls(
+            found.kind[rows].tolist(),
+            found.rank[rows].tolist(),
+            found.capped[rows].tolist(),
+            found.gap[rows].tolist(),
+            found.margin[rows].tolist(),
+            found.closing[rows].tolist(),
+            found.ttc[rows].tolist(),
+        )
+
+    def finding(self, k: int, zone: str, other_id: str, level: Level) -> Finding:
+        """The :class:`Finding` of group ``k``, shown at ``level``."""
+        kind = _KINDS[self.kind[k]]
+        gap = self.gap[k]
+        if kind == "rear_end":
+            detail = f"{other_id} ahead on the same track at {gap:.0f} m"
+        elif kind == "head_on":
+            detail = f"{other_id} ahead, running towards us at {gap:.0f} m"
+        else:
+            where = "switch" if kind == "merge" else "crossing"
+            detail = f"{other_id} can reach the same {where} (we are {gap:.0f} m away)"
+        if self.capped[k]:
+            detail += " (unconfirmed)"
+        ttc = self.ttc[k]
+        return Finding(
+            kind,
+            level,
+            gap,
+            self.margin[k],
+            self.closing[k],
+            None if ttc != ttc else ttc,
+            zone,
+            detail,
+        )
 
 
 def _rank(
@@ -749,28 +758,3 @@ def _arrival_s(
         capped = (vmax - v) / accel + (distance - d_acc) / vmax
     out = np.where(accel <= 0.0, coast, np.where(distance <= d_acc, rising, capped))
     return np.where(distance <= 0.0, 0.0, out)
-
-
-def _expand(
-    rows: IntArray, lo: IntArray, hi: IntArray, targets: IntArray
-) -> tuple[IntArray, IntArray]:
-    """Each row repeated once per target in ``targets[lo:hi]``, with that target."""
-    counts = hi - lo
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    rep = np.repeat(rows, counts)
-    first = np.repeat(lo - np.cumsum(counts) + counts, counts)
-    return rep, targets[first + np.arange(total)]
-
-
-def _starts(*keys: IntArray) -> IntArray:
-    """Start positions of the runs of equal consecutive keys."""
-    n = len(keys[0])
-    if n == 0:
-        return np.zeros(0, dtype=np.int64)
-    change = np.zeros(n, dtype=bool)
-    change[0] = True
-    for k in keys:
-        change[1:] |= k[1:] != k[:-1]
-    return np.flatnonzero(change)

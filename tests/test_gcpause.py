@@ -1,0 +1,63 @@
+"""The collector pause: off inside, restored after, whatever happens."""
+
+from __future__ import annotations
+
+import gc
+
+import pytest
+
+import trackmap
+from antikol import Analyser, UnknownVehicleError, VehicleReport
+from antikol.gcpause import gc_paused
+
+
+@gc_paused
+def _state() -> bool:
+    return gc.isenabled()
+
+
+@gc_paused
+def _nested() -> tuple[bool, bool]:
+    inner = _state()
+    return inner, gc.isenabled()
+
+
+@gc_paused
+def _raises() -> None:
+    raise KeyError("boom")
+
+
+def test_paused_inside_and_restored_after() -> None:
+    assert gc.isenabled()
+    assert _state() is False
+    assert gc.isenabled()
+
+
+def test_nested_calls_leave_the_collector_to_the_outermost() -> None:
+    assert _nested() == (False, False)
+    assert gc.isenabled()
+
+
+def test_restored_after_an_exception() -> None:
+    with pytest.raises(KeyError):
+        _raises()
+    assert gc.isenabled()
+
+
+def test_a_collector_switched_off_by_the_caller_stays_off() -> None:
+    gc.disable()
+    try:
+        assert _state() is False
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+
+
+def test_the_analyser_leaves_the_collector_on() -> None:
+    an = Analyser(track_map=trackmap.load_default())
+    an.update(VehicleReport("A", 0.0, 50.06306, 19.93260, 5.0, 90.0))
+    an.assess("A")
+    assert gc.isenabled()
+    with pytest.raises(UnknownVehicleError):
+        an.assess("nobody")
+    assert gc.isenabled()
