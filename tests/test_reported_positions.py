@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import trackmap
 from antikol import Analyser, AnalyserConfig, ReportedTrackPosition
 from antikol.ingest.protocol import StreamDecoder, encode_report
+from antikol.positioning.reported import ReportedSettings
 from tests._osm import FRAME, OsmBuilder
 from tests._paths import interleave, reports_along
 
@@ -51,10 +52,13 @@ def test_a_checked_reported_position_is_used_and_the_matcher_kept_warm(net):
     assert pos.offset_m == pytest.approx(500.0 + 70.0 + 6.0 + 5.0, abs=1e-6)
     assert pos.sigma_m == pytest.approx(2.0 + 0.3 * 0.5)
     assert an.reported is not None and an.reported.used == len(T)
-    # the matcher still follows B from its fixes, ready for reports without a position
+    # the matcher still follows B from a fix every 5 s (t = 0 and 5), ready for reports
+    # without a position; the other fixes are not matched
+    assert an.reported.unmatched == len(T) - 2
     assert an.positioner is not None
     warm = an.positioner.position("B")
-    assert warm is not None and warm.offset_m == pytest.approx(570.0, abs=5.0)
+    assert warm is not None and warm.t == 5.0
+    assert warm.offset_m == pytest.approx(550.0, abs=5.0)
     plain = dataclasses.replace(_along(net, "B", 580.0, 10.0)[0], t=8.0, track_position=None)
     an.update(plain)
     after = an.position("B")
@@ -221,3 +225,15 @@ def test_any_reported_position_is_used_or_refused_never_raised(
     if an.reported.used:
         assert pos.sigma_m is not None and pos.sigma_m >= 2.0
         assert 0.0 <= pos.offset_m <= net.edge_length(pos.edge_id) + 1e-6
+
+
+def test_every_report_is_matched_with_no_refresh_interval(net):
+    config = AnalyserConfig(reported_positions=ReportedSettings(matcher_refresh_s=0.0))
+    an = Analyser(track_map=net, config=config)
+    for r in _along(net, "B", 500.0, 10.0):
+        an.update(r)
+    an.position("B")
+    assert an.reported is not None and an.reported.unmatched == 0
+    assert an.positioner is not None
+    warm = an.positioner.position("B")
+    assert warm is not None and warm.t == T[-1]

@@ -17,13 +17,16 @@ when it passes every check, and the receiver's own matching otherwise:
   (within 90 degrees): an edge drawn the other way on another map version shows here.
 
 Nothing received is trusted further than that: a refused track position is counted by
-reason (:attr:`ReportedFirst.rejected`). Every report still goes to the matcher, so that a
-vehicle that stops sending its position (an on-board unit sends it only while confident)
-is matched from a warm state. The own vehicle of an on-board unit is always matched by the
-unit itself (``exclude``). A used position is carried to the analysis time along the track
-at the reported speed, with an uncertainty growing with that time; it is not carried past
-a switch the report's route does not decide (it stops at the switch, its uncertainty grown
-by the distance it did not travel).
+reason (:attr:`ReportedFirst.rejected`). While a vehicle's positions are used, one of its
+reports every ``matcher_refresh_s`` still goes to the matcher, so that a vehicle that stops
+sending its position (an on-board unit sends it only while confident) is matched from a
+state at most that old, without paying for matching every report the vehicle positions
+better itself; every report without a usable position goes to the matcher. The own
+vehicle of an on-board unit is always matched by the unit itself (``exclude``). A used
+position is carried to the analysis time along the track at the reported speed, with an
+uncertainty growing with that time; it is not carried past a switch the report's route
+does not decide (it stops at the switch, its uncertainty grown by the distance it did not
+travel).
 """
 
 from __future__ import annotations
@@ -57,12 +60,18 @@ class ReportedSettings:
         One-sigma uncertainty of a reported position at its report time, m ...
     speed_sigma_mps : float
         ... growing by this for every second it is carried forward, m/s.
+    matcher_refresh_s : float
+        While a vehicle's reported positions are used, its reports go to the matcher at
+        most this often, s (0: every report). Matching the others is most of an on-board
+        cycle; the matcher needs only a recent state to take over when the vehicle stops
+        sending its position.
     """
 
     max_fix_distance_m: float = 30.0
     length_slack_m: float = 1.0
     sigma_m: float = 2.0
     speed_sigma_mps: float = 0.3
+    matcher_refresh_s: float = 5.0
 
 
 class ReportedFirst:
@@ -93,7 +102,10 @@ class ReportedFirst:
         self.settings = settings or ReportedSettings()
         self.rejected: Counter[str] = Counter()
         self.used = 0
+        #: Reports with a used position that were not matched (the matcher was fresh).
+        self.unmatched = 0
         self._latest: dict[str, VehicleReport] = {}
+        self._matched_at: dict[str, float] = {}
 
     def check(self, report: VehicleReport) -> str | None:
         """Why a report's track position cannot be used (None when it can)."""
@@ -120,18 +132,28 @@ class ReportedFirst:
     def update_many(
         self, reports: Sequence[VehicleReport], *, outputs: bool = True
     ) -> list[TrackPosition]:
-        """Take the usable reported positions; every report also goes to ``inner``."""
+        """Take the usable reported positions; the other reports, and those of vehicles
+        not matched for ``matcher_refresh_s``, go to ``inner``."""
+        refresh_s = self.settings.matcher_refresh_s
+        to_match = []
         for r in reports:
-            reason = "absent" if r.vehicle_id in self.exclude else self.check(r)
+            vid = r.vehicle_id
+            reason = "absent" if vid in self.exclude else self.check(r)
             if reason is None:
-                self._latest[r.vehicle_id] = r
+                self._latest[vid] = r
                 self.used += 1
-                continue
-            if reason != "absent":
-                self.rejected[reason] += 1
-            self._latest.pop(r.vehicle_id, None)
-        if reports:
-            self.inner.update_many(reports, outputs=False)
+                last = self._matched_at.get(vid)
+                if last is not None and r.t - last < refresh_s:
+                    self.unmatched += 1
+                    continue
+            else:
+                if reason != "absent":
+                    self.rejected[reason] += 1
+                self._latest.pop(vid, None)
+            to_match.append(r)
+            self._matched_at[vid] = r.t
+        if to_match:
+            self.inner.update_many(to_match, outputs=False)
         if not outputs:
             return []
         out = []
@@ -153,6 +175,7 @@ class ReportedFirst:
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle (it left the table)."""
         self._latest.pop(vehicle_id, None)
+        self._matched_at.pop(vehicle_id, None)
         self.inner.forget(vehicle_id)
 
     def _branches(self, tp: ReportedTrackPosition, offset: float, run_m: float) -> bool:
