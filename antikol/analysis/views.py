@@ -461,17 +461,19 @@ def _approaches(
     paths: tuple[Path, ...],
 ) -> tuple[tuple[ConflictApproach, ...], tuple[tuple[int, ...], ...]]:
     """The distinct ways a hypothesis' paths pass conflict points, and each path's."""
-    index: dict[ConflictApproach, int] = {}
+    # keyed by plain tuples: hashing a frozen dataclass rebuilds a tuple on every look-up
+    index: dict[tuple[int, float, int, int], int] = {}
     per_path = []
     for p in paths:
         mine = []
         for cp, node in zip(p.conflicts, _nodes_at(p), strict=True):
-            ap = ConflictApproach(
-                cp.conflict_id,
-                cp.distance_m,
-                node.from_edge if node is not None else cp.edge_id,
-                node.to_edge if node is not None else cp.edge_id,
-            )
-            mine.append(index.setdefault(ap, len(index)))
+            if node is not None:
+                key = (cp.conflict_id, cp.distance_m, node.from_edge, node.to_edge)
+            else:
+                key = (cp.conflict_id, cp.distance_m, cp.edge_id, cp.edge_id)
+            k = index.get(key)
+            if k is None:
+                k = index[key] = len(index)
+            mine.append(k)
         per_path.append(tuple(mine))
-    return tuple(index), tuple(per_path)
+    return tuple(ConflictApproach(*key) for key in index), tuple(per_path)
