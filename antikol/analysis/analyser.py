@@ -367,7 +367,6 @@ class Analyser:
         """
         return self.update_many([report])[0]
 
-    @gc_paused
     def update_many(self, reports: Sequence[VehicleReport]) -> list[TableUpdate]:
         """Feed many reports at once (one analysis cycle of a fleet).
 
