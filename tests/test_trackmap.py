@@ -436,3 +436,33 @@ _SWITCH_NET = trackmap.build(
         __import__("pathlib").Path(__import__("tempfile").mkdtemp()) / "s.osm"
     )
 )
+
+
+@pytest.fixture(scope="module")
+def krakow() -> trackmap.TrackMap:
+    return trackmap.load_default()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.integers(min_value=0, max_value=10**6),
+            st.floats(min_value=-0.2, max_value=1.2, allow_nan=False),
+            st.sampled_from([1, -1]),
+        ),
+        min_size=1,
+        max_size=40,
+    )
+)
+def test_vectorised_headings_and_points_are_the_scalar_ones_to_the_last_bit(krakow, rows):
+    # the positioning's batched outputs rely on it: same numbers as one call per position
+    n = len(krakow.edges)
+    edges = [e % n for e, _, _ in rows]
+    offsets = [f * krakow.edge_length(e) for e, (_, f, _) in zip(edges, rows, strict=True)]
+    dirs = [d for _, _, d in rows]
+    headings = krakow.headings_at(edges, offsets, dirs)
+    x, y = krakow.points_at(edges, offsets)
+    for k, (e, o, d) in enumerate(zip(edges, offsets, dirs, strict=True)):
+        assert float(headings[k]) == krakow.heading_at(e, o, d)
+        assert (float(x[k]), float(y[k])) == krakow.point_at(e, o)
