@@ -235,12 +235,9 @@ def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
         ]
 
     # undecided: at the switch on the trunk, 6 m more uncertain
-    assert hold_at_switch(arrivals, hyps(0.6, 6.0), branch, 6.0, 1) == (
-        trunk.edge_id,
-        trunk.length_m,
-        1,
-        6.0,
-    )
+    held = hold_at_switch(arrivals, hyps(0.6, 6.0), branch, 6.0, 1)
+    assert held is not None
+    assert held[:4] == (trunk.edge_id, trunk.length_m, 1, 6.0)
     assert hold_at_switch(arrivals, hyps(0.95, 6.0), branch, 6.0, 1) is None  # decided
     assert hold_at_switch(arrivals, hyps(0.6, 50.0), branch, 50.0, 1) is None  # far past it
     assert hold_at_switch(arrivals, hyps(1.0, 6.0)[:1], branch, 6.0, 1) is None  # no rival

@@ -5,23 +5,44 @@ matcher keeps a hypothesis on each and the most probable one may still change. R
 the vehicle on a branch it is not sure of, then on the other, gives positions that no
 permitted move connects. While the branches' hypotheses are undecided, the vehicle is
 reported at the switch itself, on the track before it, with its along-track uncertainty
-grown by the distance it has run past the switch: every branch it may be on starts there.
+grown by the distance it has run past it: every branch it may be on starts there.
+
+The switch is found by following each hypothesis back along the track it came by
+(:meth:`Arrivals.before`), so a switch a few short edges behind the reported position counts
+as well as one at the start of its edge, and a hypothesis on another branch counts however
+its branch is cut into edges; a hypothesis still on the track before the switch has not
+decided either. Of several undecided switches the vehicle is held at the
+earliest: a later one lies on a branch of it that is not decided either. A position carried
+past a switch by the along-track filter before any hypothesis has passed it is undecided too.
+
+Once a vehicle has been reported past a switch on a branch, it is held at that switch again
+(``released``) only when that branch has lost the majority: stepping back to the switch
+breaks the chain of reported positions as much as a branch change does, and a share
+wavering around the threshold would step back and forth.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
+from typing import NamedTuple
 
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
-__all__ = ["Arrivals", "hold_at_switch"]
+__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch", "passed_switches"]
 
 #: Past a switch farther than this, the branch is reported even if undecided, m.
 HOLD_M = 40.0
 #: A branch holding this share of the branches' probability is decided.
 DECIDED_SHARE = 0.9
+#: Once reported past a switch, the vehicle is held at it again only when the branch it
+#: was reported on holds less than this share.
+RELEASED_SHARE = 0.5
+#: Hypotheses are followed back this far to find the switch they passed, m.
+LOOKBACK_M = HOLD_M + 40.0
+
+State = tuple[int, int]
 
 
 class Arrivals:
@@ -29,10 +50,14 @@ class Arrivals:
 
     def __init__(self, net: TrackMap) -> None:
         self.net = net
-        self._at: dict[int, list[tuple[int, int]]] = defaultdict(list)
+        self._at: dict[int, list[State]] = defaultdict(list)
         for e in net.edges:
             self._at[e.end_node].append((e.edge_id, 1))
             self._at[e.start_node].append((e.edge_id, -1))
+        self._before: dict[State, State | None] = {}
+        self._facing: dict[State, bool] = {}
+        self._skeletons: dict[State, tuple[tuple[int, float, State, bool], ...]] = {}
+        self._passed: dict[State, frozenset[int]] = {}
 
     def trunk(self, node: int, edge: int, direction: int) -> tuple[int, int] | None:
         """A state arriving at ``node`` from which ``(edge, direction)`` is entered."""
@@ -43,10 +68,93 @@ class Arrivals:
                 return state
         return None
 
+    def before(self, edge: int, direction: int) -> State | None:
+        """The one state a vehicle in ``(edge, direction)`` came from (None where several
+        join, at a trailing switch, or none: the end of the track)."""
+        key = (edge, direction)
+        if key not in self._before:
+            node = entry_node(self.net, edge, direction)
+            came = [
+                s
+                for s in self._at.get(node, ())
+                if s[0] != edge and key in self.net.successors(*s, respect_direction=False)
+            ]
+            self._before[key] = came[0] if len(came) == 1 else None
+        return self._before[key]
 
-def _entry(net: TrackMap, edge: int, offset: float, direction: int) -> tuple[int, float]:
+    def facing(self, state: State) -> bool:
+        """Whether the track branches at the end of ``state`` (a facing switch)."""
+        if state not in self._facing:
+            ahead = self.net.successors(*state, respect_direction=False)
+            self._facing[state] = len(ahead) > 1
+        return self._facing[state]
+
+    def chain(self, edge: int, offset: float, direction: int) -> list[tuple[int, float, State]]:
+        """The nodes a position came through, nearest first, up to :data:`LOOKBACK_M`:
+        (node, metres run past it, the state entered there)."""
+        past = offset if direction == 1 else self.net.edge_length(edge) - offset
+        return [
+            (node, past + behind, state)
+            for node, behind, state, _ in self.skeleton((edge, direction))
+            if past + behind <= LOOKBACK_M
+        ]
+
+    def skeleton(self, start: State) -> tuple[tuple[int, float, State, bool], ...]:
+        """The nodes a vehicle in state ``start`` came through, nearest first (cached):
+        (node, metres of track between it and the entry of ``start``, the state entered
+        there, whether it is a facing switch), up to :data:`LOOKBACK_M` back."""
+        cached = self._skeletons.get(start)
+        if cached is not None:
+            return cached
+        out: list[tuple[int, float, State, bool]] = []
+        state, behind, seen = start, 0.0, {start[0]}
+        while behind <= LOOKBACK_M:
+            prev = self.before(*state)
+            switch = prev is not None and self.facing(prev)
+            out.append((entry_node(self.net, *state), behind, state, switch))
+            if prev is None or prev[0] in seen:
+                break
+            seen.add(prev[0])
+            state = prev
+            behind += self.net.edge_length(state[0])
+        result = tuple(out)
+        self._skeletons[start] = result
+        return result
+
+    def switches_behind(self, state: State) -> frozenset[int]:
+        """Nodes of the facing switches a vehicle in ``state`` came through (cached), up to
+        :data:`LOOKBACK_M` behind the entry of its edge."""
+        cached = self._passed.get(state)
+        if cached is None:
+            cached = frozenset(n for n, _, _, switch in self.skeleton(state) if switch)
+            self._passed[state] = cached
+        return cached
+
+
+def entry_node(net: TrackMap, edge: int, direction: int) -> int:
+    """The node at which a vehicle in ``(edge, direction)`` entered the edge."""
     e = net.edges[edge]
-    return (e.start_node, offset) if direction == 1 else (e.end_node, e.length_m - offset)
+    return e.start_node if direction == 1 else e.end_node
+
+
+class SwitchHold(NamedTuple):
+    """Where to report a vehicle held at a switch.
+
+    Attributes
+    ----------
+    edge_id, offset_m, direction
+        The end of the track before the switch (edge id, m from the edge's start, +1/-1).
+    past_m : float
+        How far the position it replaces has run past the switch, m.
+    node : int
+        The switch's node.
+    """
+
+    edge_id: int
+    offset_m: float
+    direction: int
+    past_m: float
+    node: int
 
 
 def hold_at_switch(
@@ -55,9 +163,12 @@ def hold_at_switch(
     edge: int,
     offset: float,
     direction: int,
-) -> tuple[int, float, int, float] | None:
-    """The switch to report instead of an undecided branch: (edge, offset, direction of
-    the track before it, metres run past it), or None when the branch is decided.
+    *,
+    released: Collection[int] = (),
+    route: Collection[int] | None = None,
+) -> SwitchHold | None:
+    """The switch to report instead of an undecided branch, or None when every switch the
+    position has just passed is decided.
 
     Parameters
     ----------
@@ -67,25 +178,51 @@ def hold_at_switch(
         The matcher's hypotheses of the vehicle.
     edge, offset, direction
         The position it would report (edge id, m from the edge's start, +1/-1).
+    released : collection of int
+        Nodes of switches the vehicle has already been reported past: held at again only
+        while the branch holds less than :data:`RELEASED_SHARE`.
+    route : collection of int, optional
+        Edge ids of the vehicle's planned route: a branch on it is decided.
+
+    Returns
+    -------
+    SwitchHold or None
     """
     net = arrivals.net
-    node, past_m = _entry(net, edge, offset, direction)
-    if past_m > HOLD_M:
+    past0 = offset if direction == 1 else net.edge_length(edge) - offset
+    switches = [
+        (node, past0 + behind, state)
+        for node, behind, state, switch in arrivals.skeleton((edge, direction))
+        if switch and past0 + behind <= HOLD_M and not (route and state[0] in route)
+    ]
+    if not switches:
         return None
-    mine = others = 0.0
-    for h in hypotheses:
-        h_node, h_past = _entry(net, h.edge_id, h.offset_m, h.direction)
-        if h_node != node or h_past > HOLD_M:
+    chains = [
+        ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)}, h.probability)
+        for h in hypotheses
+    ]
+    for node, past, state in reversed(switches):  # the earliest switch first
+        trunk = arrivals.before(*state)
+        if trunk is None:  # pragma: no cover - a switch has a track before it
             continue
-        if h.edge_id == edge and h.direction == direction:
-            mine += h.probability
-        elif h.edge_id != edge:
-            others += h.probability
-    if others <= 0.0 or mine / (mine + others) >= DECIDED_SHARE:
-        return None
-    trunk = arrivals.trunk(node, edge, direction)
-    if trunk is None:
-        return None
-    t_edge, t_dir = trunk
-    end = net.edges[t_edge].length_m if t_dir == 1 else 0.0
-    return t_edge, end, t_dir, past_m
+        mine = others = 0.0
+        for (passed, p), h in zip(chains, hypotheses, strict=True):
+            taken = passed.get(node)
+            if taken == state:
+                mine += p
+            elif taken is not None or (h.edge_id, h.direction) == trunk:
+                others += p  # on another branch, or still before the switch
+        decided = RELEASED_SHARE if node in released else DECIDED_SHARE
+        if mine > 0.0 and mine / (mine + others) >= decided:
+            continue
+        t_edge, t_dir = trunk
+        end = net.edges[t_edge].length_m if t_dir == 1 else 0.0
+        return SwitchHold(t_edge, end, t_dir, past, node)
+    return None
+
+
+def passed_switches(arrivals: Arrivals, edge: int, offset: float, direction: int) -> frozenset[int]:
+    """The nodes of the facing switches a reported position has run past, on the edges it
+    came by up to :data:`LOOKBACK_M` behind its edge (for ``released`` of
+    :func:`hold_at_switch`; ``offset`` does not matter)."""
+    return arrivals.switches_behind((edge, direction))

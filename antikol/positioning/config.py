@@ -65,10 +65,17 @@ class PositioningConfig:
     relocation_log_prior : float
         Log-probability that the vehicle is where none of its hypotheses can have taken
         it (a track missing from the map, a wrong connection in it): the filter recovers
-        from map errors instead of holding on to an impossible history.
+        from map errors instead of holding on to an impossible history. Only a candidate
+        that no plausible move reaches (``implausible_move_nats``) is relocated.
     transition_beta_m : float
         Scale of the transition likelihood, m (plus 10 % of the distance travelled; a tenth
         of that with an odometer).
+    implausible_move_nats : float
+        A fix that every hypothesis reaches only by a move costing more than this (the
+        along-track mismatch over the transition scale, e.g. 50 m with an odometer) is an
+        outlier — a far multipath fix near another track — and is rejected like a fix with
+        no track within the search radius: the vehicle keeps its hypotheses and is
+        dead-reckoned, until ``max_rejections_in_row`` such fixes in a row restart it.
     confidence : float
         A match is ``confident`` when the best place holds at least this probability.
     switch_probability : float
@@ -133,6 +140,7 @@ class PositioningConfig:
     reversal_log_prior: float = math.log(1e-4)
     relocation_log_prior: float = math.log(1e-5)
     transition_beta_m: float = 6.0
+    implausible_move_nats: float = 25.0
     confidence: float = 0.8
     switch_probability: float = 0.75
     max_speed_mps: float = 30.0

@@ -75,7 +75,8 @@ def carry(
 ) -> None:
     """Move every hypothesis of a vehicle ``travelled_m`` along the track (odometer dead
     reckoning). Where the track branches, each branch becomes a hypothesis of its own
-    (equally likely, or the planned route's): the next fix decides."""
+    (equally likely, or the planned route's): the next fix decides. The reported lineage
+    (slot 0) goes on along the branch holding the most probability of all hypotheses."""
     f = fleet
     slots = np.flatnonzero(f.hs[row] >= 0)
     grown: list[tuple[float, int, float, int]] = []  # log-p, state, offset, parent slot
@@ -107,7 +108,11 @@ def carry(
             grown.append((float(f.hp[row, k]) + share, sid, last.exit_offset_m, k))
     if not grown:
         return
-    first = max((g for g in grown if g[3] == 0), key=lambda g: g[0], default=None)
+    # the reported lineage goes on along the branch that holds the most probability
+    mass: dict[int, float] = {}
+    for g in grown:
+        mass[g[1]] = mass.get(g[1], 0.0) + math.exp(g[0])
+    first = max((g for g in grown if g[3] == 0), key=lambda g: (mass[g[1]], g[0]), default=None)
     rest = sorted((g for g in grown if g is not first), key=lambda g: -g[0])
     kept = ([first] if first is not None else []) + rest
     kept = kept[: fleet.k]

@@ -53,7 +53,8 @@ class FleetState:
     pyy: FloatArray = field(init=False)
     # per vehicle: last fix time (s), local position (m), reported speed (m/s), odometer
     # (m), odometer and time at the last GPS position, lineage progress at the last fix (m),
-    # probability of the reported place, rejections and confident matches in a row
+    # probability of the reported place, rejections, confident matches and along-track
+    # innovations beyond the gate in a row
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -65,6 +66,7 @@ class FleetState:
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
+    gated: IntArray = field(init=False)
     unmatched: npt.NDArray[np.bool_] = field(init=False)
     kf: TrackFilterState = field(init=False)
     last: list[VehicleReport | None] = field(init=False, default_factory=list)
@@ -79,6 +81,7 @@ class FleetState:
             setattr(self, name, np.zeros(0))
         self.rejected = np.zeros(0, np.int64)
         self.confident_run = np.zeros(0, np.int64)
+        self.gated = np.zeros(0, np.int64)
         self.unmatched = np.zeros(0, bool)
         self.kf = TrackFilterState.empty(0)
 
@@ -94,6 +97,7 @@ class FleetState:
             "place",
             "rejected",
             "confident_run",
+            "gated",
             "unmatched",
         ):
             arr = getattr(self, name)
@@ -112,7 +116,7 @@ class FleetState:
         for name in ("t", "x", "y", "odo", "odo_fix", "t_fix"):
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = 0.0
-        self.rejected[row] = self.confident_run[row] = 0
+        self.rejected[row] = self.confident_run[row] = self.gated[row] = 0
         self.unmatched[row] = False
         self.kf.t[row] = np.nan
         self.last[row] = None

@@ -30,7 +30,10 @@ one cycle of a whole city in a few array operations.
 Reports that contradict physics (a jump of hundreds of metres in a second, a speed or an
 acceleration the vehicle cannot reach) are rejected and counted and leave the state
 untouched; after ``max_rejections_in_row`` rejections in a row the vehicle is re-initialised
-from the new evidence.
+from the new evidence. A fix that no hypothesis explains — no track within the search
+radius, or only one that no plausible move reaches (``implausible_move_nats``) — is an
+outlier too: the vehicle is dead-reckoned over it as over a report without a fix. The first
+along-track innovation beyond the gate is forgiven likewise (:mod:`antikol.positioning.alongtrack`).
 """
 
 from __future__ import annotations
@@ -46,7 +49,8 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.kinds import PositionStatus
-from antikol.positioning.branching import Arrivals, hold_at_switch
+from antikol.positioning.alongtrack import run_track_filters
+from antikol.positioning.branching import Arrivals, hold_at_switch, passed_switches
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
@@ -58,12 +62,7 @@ from antikol.positioning.fleet import (
     json_float,
     report_dict,
 )
-from antikol.positioning.kalman import (
-    track_estimate,
-    track_odometer_step,
-    track_predict,
-    track_update,
-)
+from antikol.positioning.kalman import track_estimate
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
@@ -122,6 +121,8 @@ class Positioner:
         self._f.grow(64)
         self._free: list[int] = list(range(63, -1, -1))
         self._cache: dict[str, TrackPosition] = {}
+        # facing switches each vehicle was last reported past (see branching.hold_at_switch)
+        self._passed: dict[str, frozenset[int]] = {}
         self._loops = loop_edges(track_map, self.config.search_radius_m)
 
     # -- fleet storage -------------------------------------------------------------------
@@ -225,6 +226,7 @@ class Positioner:
         """Drop a vehicle's state (it left the vehicle table)."""
         row = self._row.pop(vehicle_id, None)
         self._cache.pop(vehicle_id, None)
+        self._passed.pop(vehicle_id, None)
         self.fixes.forget(vehicle_id)
         if row is not None:
             self._f.clear(row)
@@ -276,11 +278,7 @@ class Positioner:
         keep = ~rejected
 
         # 2. reports without a position fix: dead reckoning on the odometer, if any
-        dr = keep & no_fix
-        for i in np.flatnonzero(dr):
-            dead_reckon(
-                self._f, self.reach, self.net, self.config, self.stats, rows[i], reports[i], odo[i]
-            )
+        self._dead_reckon(np.flatnonzero(keep & no_fix), reports, rows, odo)
         fix = keep & ~no_fix
         if not fix.any():
             return
@@ -342,6 +340,22 @@ class Positioner:
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected
         self._commit(reports, rows, t, speed, odo, xs, ys, scored)
+        # an outlier fix leaves the hypotheses as they were: carried on the odometer
+        self._dead_reckon(np.flatnonzero(scored.stuck), reports, rows, odo)
+
+    def _dead_reckon(
+        self, which: IntArray, reports: list[VehicleReport], rows: IntArray, odo: FloatArray
+    ) -> None:
+        """Carry the vehicles of reports ``which`` on their odometers (no usable fix); the
+        probability of the reported place follows the hypotheses split at switches."""
+        if not len(which):
+            return
+        for i in which.tolist():
+            dead_reckon(
+                self._f, self.reach, self.net, self.config, self.stats, rows[i], reports[i], odo[i]
+            )
+        carried = rows[which]
+        self._f.place[carried] = self._place_probabilities(carried)
 
     def _commit(
         self,
@@ -410,7 +424,7 @@ class Positioner:
                 self._f.lost[row] = "missed_fixes"
                 self._f.confident_run[row] = 0
                 self.stats["lost_missed_fixes"] += 1
-        gone = rows[unmatched]
+        gone = rows[unmatched & ~skip]
         self._f.confident_run[gone] = 0
         self._f.place[gone] = 0.0
 
@@ -480,7 +494,15 @@ class Positioner:
             getattr(f, name)[r, col] = values[m_idx]
         switched = ~fresh[go] & (parent[chosen] != 0)
         self.stats["lineage_switch"] += int(np.count_nonzero(switched))
-        self._run_filters(rows[go], measured, go, prog[chosen], restart=fresh[go] | switched)
+        run_track_filters(
+            f,
+            c,
+            self.stats,
+            rows[go],
+            (measured[0][go], measured[1][go], measured[2][go], measured[3][go]),
+            prog[chosen],
+            fresh[go] | switched,
+        )
         if self.fixes.active:
             for k in np.flatnonzero(~fresh[go] & ~switched).tolist():
                 i = int(go[k])
@@ -488,57 +510,6 @@ class Positioner:
         f.unmatched[done] = False
         f.rejected[done] = 0
         self.stats["matched"] += len(go)
-
-    def _run_filters(
-        self,
-        done: IntArray,
-        measured: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
-        go: IntArray,
-        progress: FloatArray,
-        *,
-        restart: npt.NDArray[np.bool_],
-    ) -> None:
-        """Fuse each reported lineage's progress (and speed or odometer) into the vehicles'
-        along-track filters (rows ``done``, reports ``go``); the along-track sigma is the
-        fix's error along the track (white and bias), m."""
-        c = self.config
-        kf = self._f.kf
-        t_all, speed_all, odo_all, along_all = measured
-        t, speed, odo, along = t_all[go], speed_all[go], odo_all[go], along_all[go]
-        reset = restart | np.isnan(kf.t[done])
-        r = done[reset]
-        kf.t[r], kf.s[r], kf.v[r] = t[reset], progress[reset], speed[reset]
-        kf.pss[r] = along[reset] * along[reset]
-        kf.psv[r] = 0.0
-        kf.pvv[r] = (2.0 * c.speed_sigma_mps) ** 2
-        resets = int(np.count_nonzero(reset))
-        odo_prev = self._f.odo[done]
-        wheels = ~reset & np.isfinite(odo) & np.isfinite(odo_prev)
-        gps = ~reset & ~wheels
-        nis = np.zeros(len(done))
-        if wheels.any():
-            r = done[wheels]
-            track_odometer_step(
-                kf,
-                r,
-                t[wheels],
-                np.maximum(odo[wheels] - odo_prev[wheels], 0.0),
-                c.odometer_sigma_fraction,
-            )
-            nis[wheels] = track_update(
-                kf, r, progress[wheels], along[wheels], None, c.speed_sigma_mps
-            )
-        if gps.any():
-            r = done[gps]
-            track_predict(kf, r, t[gps], c.accel_sigma_mps2)
-            nis[gps] = track_update(kf, r, progress[gps], along[gps], speed[gps], c.speed_sigma_mps)
-        gate = ~reset & (np.abs(nis) > c.nis_gate)
-        r = done[gate]
-        kf.s[r] = progress[gate]
-        kf.pss[r] = along[gate] * along[gate]
-        kf.psv[r] = 0.0
-        self.stats["filter_reset"] += resets + int(np.count_nonzero(gate))
-        self._f.z[done] = progress
 
     def _set_fixes(
         self,
@@ -631,9 +602,14 @@ class Positioner:
         )
         edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
         place_p = float(self._f.place[row]) * moved.branch_share
-        if (held := hold_at_switch(self._arrivals, hyps, edge, off, direction)) is not None:
-            edge, off, direction, past_m = held
+        released = self._passed.get(vid, frozenset())
+        held = hold_at_switch(
+            self._arrivals, hyps, edge, off, direction, released=released, route=last.route
+        )
+        if held is not None:
+            edge, off, direction, past_m, _ = held
             s_std, place_p = s_std + past_m, float(self._f.place[row])
+        self._passed[vid] = passed_switches(self._arrivals, edge, off, direction)
         x, y = self.net.point_at(edge, off)
         lon, lat = self.net.to_lonlat(x, y)
         age = t - float(self._f.t_fix[row])
@@ -766,6 +742,7 @@ class Positioner:
             "filter": [json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
             "rejected_in_row": int(self._f.rejected[row]),
             "confident_in_row": int(self._f.confident_run[row]),
+            "gated_in_row": int(self._f.gated[row]),
             "unmatched": bool(self._f.unmatched[row]),
             "lost": self._f.lost[row],
             "fixes": self.fixes.state(vehicle_id),
@@ -792,6 +769,7 @@ class Positioner:
             arr[row] = math.nan if value is None else value
         self._f.rejected[row] = int(data["rejected_in_row"])
         self._f.confident_run[row] = int(data["confident_in_row"])
+        self._f.gated[row] = int(data.get("gated_in_row", 0))
         self._f.unmatched[row] = bool(data["unmatched"])
         self._f.lost[row] = data["lost"]
         self.fixes.restore(vehicle_id, data.get("fixes"))

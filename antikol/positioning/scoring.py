@@ -41,8 +41,9 @@ _NEG_INF = -math.inf
 class Scored:
     """The candidate states of a batch of fixes, scored (parallel arrays).
 
-    Per fix: ``unmatched`` (no candidate), ``stuck`` (no hypothesis reaches a candidate:
-    the fix is rejected), ``fresh`` (the vehicle starts afresh), ``rejected`` (its
+    Per fix: ``unmatched`` (no candidate), ``stuck`` (the vehicle has hypotheses but none
+    reaches a candidate by a plausible move, or there is no candidate: the fix is an
+    outlier and rejected), ``fresh`` (the vehicle starts afresh), ``rejected`` (its
     rejections in a row after this step) and ``along_sigma`` (the fix's error along the
     track, m). Per candidate state: the fix it belongs to (``cv``), the state id (``cs``),
     the offset (``co``, m), the log-probability (``log_p``), the progress along its
@@ -174,12 +175,13 @@ def score_fixes(
         0.3 * c.transition_beta_m + 0.02 * travelled,
         c.transition_beta_m + 0.1 * travelled,
     )[cv][:, None]
-    trans = -np.abs(dist - exp_m) / beta
+    move_cost = np.abs(dist - exp_m) / beta
     # a standing vehicle may change direction (bidirectional trams at termini)
     reversal = ((pss >> 1) == (cs >> 1)[:, None]) & ((pss & 1) != (cs & 1)[:, None])
     rev_ok = reversal & (exp_m < 1.0)
     rev_dist = np.abs(co[:, None] - po)
-    trans = np.where(rev_ok, c.reversal_log_prior - rev_dist / beta, trans)
+    move_cost = np.where(rev_ok, rev_dist / beta, move_cost)
+    trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost
     dist = np.where(rev_ok, rev_dist, dist)
     enters_wrong = wrong[:, None] & reach.allowed[pss]
     trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
@@ -222,15 +224,23 @@ def score_fixes(
     )
     score0 = lat0 + static_ll + np.where(wrong, c.wrong_way_entry_log_prior, 0.0)
 
-    # vehicles whose previous hypotheses reach no candidate: a jump the map cannot explain
+    # fixes no hypothesis explains: no track within the search radius, or none that a
+    # plausible move reaches (a jump the map cannot explain, a far outlier near another
+    # track); the vehicle keeps its hypotheses and the report is dead-reckoned
     cont = ~fresh[cv]
+    cheapest = np.min(np.where(valid, move_cost, np.inf), axis=1)
+    plausible = np.isfinite(lse) & cont & (cheapest <= c.implausible_move_nats)
     reach_any = np.zeros(n, bool)
-    np.logical_or.at(reach_any, cv, np.isfinite(lse) & cont)
-    stuck = ~fresh & ~unmatched & ~reach_any
+    np.logical_or.at(reach_any, cv, plausible)
+    stuck = ~fresh & ~reach_any
     # (counted as rejections in a row; enough of them and the vehicle starts afresh)
     rejected = fleet.rejected[rows] + stuck
     restart = stuck & (rejected >= c.max_rejections_in_row)
-    for name, happened in (("unreachable_fix", stuck), ("reset_after_rejections", restart)):
+    for name, happened in (
+        ("unreachable_fix", stuck & ~unmatched),
+        ("outlier_off_track", stuck & unmatched),
+        ("reset_after_rejections", restart),
+    ):
         if happened.any():
             stats[name] += int(np.count_nonzero(happened))
     rejected[restart] = 0
@@ -238,9 +248,10 @@ def score_fixes(
     use0 = fresh[cv]
     # the vehicle may be where its previous hypotheses cannot reach (a track missing
     # from the map, a wrong connection): a small prior keeps the filter from holding on
-    # to an impossible history
+    # to an impossible history (but a plausible move, however poor, keeps the lineage: a
+    # fix off along the track is an outlier, not a relocation)
     relocate = score0 + c.relocation_log_prior
-    moved = ~use0 & (relocate > top)
+    moved = ~use0 & (relocate > top) & ~plausible
     lse = np.where(use0, lse, np.logaddexp(lse, relocate))
     if moved.any():
         stats["relocated"] += int(np.count_nonzero(moved))

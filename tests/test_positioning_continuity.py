@@ -1,0 +1,228 @@
+"""Reported positions that follow one another by permitted moves (issue 12).
+
+A fix far off along the track, or off every track, is an outlier: the reported position
+keeps going. Just past a facing switch the vehicle is held at the switch while its
+branch is undecided — wherever the switch lies behind it, and counting the hypotheses that
+have not passed it yet — and it is not stepped back to a switch it was reported past unless
+its branch lost the majority. Without a fix the reported lineage takes the branch that
+holds the most probability, and the reported place is as unsure as the split makes it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import trackmap
+from antikol import VehicleReport
+from antikol.positioning.branching import Arrivals, hold_at_switch
+from antikol.positioning.matcher import Positioner
+from antikol.positioning.records import Hypothesis
+from tests._osm import FRAME, OsmBuilder, switch_fixture
+from tests._paths import reports_along
+
+LINE = [(0.0, -500.0), (0.0, 1500.0)]
+
+
+@pytest.fixture(scope="module")
+def straight(tmp_path_factory):
+    b = OsmBuilder()
+    b.line(LINE, oneway="yes")
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
+
+
+def _with_odometer(reports: list[VehicleReport], speed_mps: float) -> list[VehicleReport]:
+    t0 = reports[0].t
+    return [
+        dataclasses.replace(r, odometer_m=5000.0 + speed_mps * (r.t - t0), fix_quality=1)
+        for r in reports
+    ]
+
+
+def _moved(r: VehicleReport, dx: float, dy: float) -> VehicleReport:
+    x, y = FRAME.to_local(r.lon, r.lat)
+    lon, lat = FRAME.to_lonlat(float(x) + dx, float(y) + dy)
+    return dataclasses.replace(r, lon=float(lon), lat=float(lat))
+
+
+def test_a_fix_far_off_along_the_track_does_not_move_the_reported_position(straight):
+    # 25 m ahead along the track in one second, with the odometer saying 10 m: every
+    # candidate shares the error; the position used to jump there and back (a relocation
+    # restarted the along-track filter at the outlier)
+    speed = 10.0
+    t = np.arange(0.0, 16.0, 1.0)
+    reports = _with_odometer(
+        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
+    )
+    reports[10] = _moved(reports[10], 0.0, 25.0)
+    pos = Positioner(straight)
+    out = [pos.update(r) for r in reports]
+    for k, p in enumerate(out):
+        assert p.status == "confident"
+        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
+    assert pos.stats["filter_reset"] == 1  # the first fix only
+    assert pos.stats["along_outlier"] == 1
+
+
+def test_a_lasting_along_track_offset_still_restarts_the_filter(straight):
+    # the second gated innovation in a row is no outlier: the filter follows the fixes
+    speed = 10.0
+    t = np.arange(0.0, 16.0, 1.0)
+    reports = _with_odometer(
+        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
+    )
+    reports[10:] = [_moved(r, 0.0, 25.0) for r in reports[10:]]
+    pos = Positioner(straight)
+    out = [pos.update(r) for r in reports]
+    assert pos.stats["filter_reset"] >= 2  # the first fix, then the lasting offset
+    assert out[-1].offset_m == pytest.approx(100.0 + speed * 15 + 25.0, abs=3.0)
+
+
+def test_a_fix_off_every_track_keeps_the_hypotheses(straight):
+    # 35 m beside the only track (beyond the 25 m search radius) but within what the
+    # vehicle could have run: the vehicle used to become unmatched and start afresh
+    speed = 12.0
+    t = np.arange(0.0, 12.0, 1.0)
+    reports = _with_odometer(
+        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
+    )
+    reports[6] = _moved(reports[6], 35.0, 0.0)
+    pos = Positioner(straight)
+    out = [pos.update(r) for r in reports]
+    assert [p.status for p in out] == ["confident"] * len(out)
+    assert out[6].offset_m == pytest.approx(100.0 + speed * 6, abs=3.0)
+    assert pos.stats["outlier_off_track"] == 1 and pos.stats["unmatched"] == 0
+    # three in a row: it is no outlier, the vehicle is off the map
+    for r in reports[7:10]:
+        pos.update(_moved(r, 35.0, 0.0))
+    assert pos.position("V").status == "unmatched"
+
+
+# -- the hold at a switch ---------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def split_branch(tmp_path_factory):
+    """The switch fixture with a second switch 10 m down the diverging branch: a position
+    on the diverging branch beyond it is on an edge that does not start at the first
+    switch."""
+    b = switch_fixture()
+    b.line([_node_at(b, 1.0, 10.0), (40.0, 10.0), (90.0, 10.0)])
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("b") / "b.osm"))
+
+
+def _node_at(b: OsmBuilder, x: float, y: float) -> int:
+    lon, lat = FRAME.to_lonlat(x, y)
+    return next(
+        nid
+        for nid, (nlon, nlat, _) in b.nodes.items()
+        if math.isclose(nlon, round(float(lon), 7)) and math.isclose(nlat, round(float(lat), 7))
+    )
+
+
+def _edges(net):
+    trunk = next(e for e in net.edges if e.way_ids == (1,))
+    straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
+    branch = [e for e in net.edges if e.way_ids == (3,)]
+    return trunk, straight, branch
+
+
+def test_held_at_a_switch_behind_a_short_edge(split_branch):
+    net = split_branch
+    trunk, straight, branch = _edges(net)
+    first, beyond = sorted(branch, key=lambda e: e.length_m)  # 10 m, then the rest
+    assert first.length_m == pytest.approx(10.05, abs=0.1)
+    arrivals = Arrivals(net)
+    hyps = [Hypothesis(beyond.edge_id, 1, 10.0, 0.6, 0.0), Hypothesis(straight, 1, 20.0, 0.4, 0.0)]
+    held = hold_at_switch(arrivals, hyps, beyond.edge_id, 10.0, 1)
+    assert held is not None
+    assert held[:3] == (trunk.edge_id, pytest.approx(trunk.length_m), 1)
+    assert held.past_m == pytest.approx(first.length_m + 10.0)
+
+
+@pytest.fixture(scope="module")
+def switch_net(tmp_path_factory):
+    return trackmap.build(switch_fixture().write_xml(tmp_path_factory.mktemp("w") / "w.osm"))
+
+
+def test_hypotheses_still_before_the_switch_have_not_decided(switch_net):
+    net = switch_net
+    trunk, straight, (branch,) = _edges(net)
+    arrivals = Arrivals(net)
+    hyps = [
+        Hypothesis(trunk.edge_id, 1, trunk.length_m - 1.0, 0.50, 0.0),
+        Hypothesis(branch.edge_id, 1, 1.0, 0.47, 0.0),
+        Hypothesis(straight, 1, 1.0, 0.03, 0.0),
+    ]
+    assert hold_at_switch(arrivals, hyps, branch.edge_id, 1.0, 1) is not None
+    # a position carried past the switch before any hypothesis: undecided as well
+    assert hold_at_switch(arrivals, hyps[:1], branch.edge_id, 3.0, 1) is not None
+
+
+def test_a_hypothesis_just_beyond_the_hold_still_counts(switch_net):
+    # the reported position lags its hypothesis: 38 m past the switch, the hypothesis 41 m
+    net = switch_net
+    _trunk, straight, (branch,) = _edges(net)
+    hyps = [
+        Hypothesis(branch.edge_id, 1, 41.0, 0.997, 0.0),
+        Hypothesis(straight, 1, 39.0, 0.003, 0.0),
+    ]
+    assert hold_at_switch(Arrivals(net), hyps, branch.edge_id, 38.0, 1) is None
+
+
+def test_not_held_again_at_a_switch_reported_past_unless_the_branch_lost(switch_net):
+    net = switch_net
+    _trunk, straight, (branch,) = _edges(net)
+    arrivals = Arrivals(net)
+    toe = branch.start_node
+
+    def hyps(p: float) -> list[Hypothesis]:
+        return [
+            Hypothesis(branch.edge_id, 1, 8.0, p, 0.0),
+            Hypothesis(straight, 1, 8.0, 1 - p, 0.0),
+        ]
+
+    assert hold_at_switch(arrivals, hyps(0.8), branch.edge_id, 8.0, 1) is not None
+    assert hold_at_switch(arrivals, hyps(0.8), branch.edge_id, 8.0, 1, released={toe}) is None
+    assert hold_at_switch(arrivals, hyps(0.4), branch.edge_id, 8.0, 1, released={toe}) is not None
+
+
+# -- dead reckoning through a switch -----------------------------------------------------------
+def test_without_a_fix_past_a_switch_the_place_is_as_unsure_as_the_split(switch_net):
+    net = switch_net
+    speed = 6.0
+    t = np.arange(0.0, 30.0, 1.0)
+    reports = _with_odometer(
+        reports_along(
+            "V", [(0.0, -200.0), (0.0, 200.0)], start_m=100.0, speed_mps=speed, t=t, frame=FRAME
+        ),
+        speed,
+    )
+    # from 20 m before the switch on, no fix (a tunnel)
+    reports = [r if r.t < 15.0 else dataclasses.replace(r, fix_quality=0) for r in reports]
+    pos = Positioner(net)
+    out = [pos.update(r) for r in reports]
+    past = [p for p in out if p.t >= 22.0]
+    assert all(p.status != "confident" and p.probability < 0.8 for p in past), past
+
+
+@pytest.mark.parametrize("favoured", ["branch", "straight"])
+def test_carried_past_a_switch_the_lineage_takes_the_branch_holding_most(switch_net, favoured):
+    from antikol.positioning.deadreckoning import carry
+    from antikol.positioning.fleet import FleetState
+    from antikol.positioning.reach import ReachTable, state_id
+
+    net = switch_net
+    trunk, straight, (branch,) = _edges(net)
+    ahead, other = (
+        (branch.edge_id, straight) if favoured == "branch" else (straight, branch.edge_id)
+    )
+    fleet = FleetState(8)
+    fleet.grow(1)
+    fleet.hs[0, :3] = [state_id(trunk.edge_id, 1), state_id(ahead, 1), state_id(other, 1)]
+    fleet.ho[0, :3] = [trunk.length_m - 2.0, 1.0, 1.0]
+    fleet.hp[0, :3] = np.log([0.40, 0.37, 0.23])
+    carry(fleet, ReachTable.for_map(net, reach_m=400.0), net, 0, 10.0, None)
+    # the trunk's 0.40 splits evenly: 0.57 on the favoured branch, 0.43 on the other
+    assert int(fleet.hs[0, 0]) >> 1 == ahead
