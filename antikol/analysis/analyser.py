@@ -35,11 +35,16 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
-import shapely
-
 from antikol.analysis import braking
 from antikol.analysis.alarms import AlarmBook, AlarmPolicy
-from antikol.analysis.assessment import Assessment, Suppressed, Threat, highest_level, sort_threats
+from antikol.analysis.assessment import (
+    Assessment,
+    Suppressed,
+    Threat,
+    Zone,
+    highest_level,
+    sort_threats,
+)
 from antikol.analysis.branches import BranchSettings
 from antikol.analysis.conflicts import RuleSettings
 from antikol.analysis.geometry import closing_speed_mps
@@ -56,12 +61,18 @@ from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
 from antikol.kinds import Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
-from antikol.positioning.records import DiscreteFix, FixPoint, PositionSource, TrackPosition
+from antikol.positioning.records import (
+    DiscreteFix,
+    FixPoint,
+    PositionSource,
+    TrackPosition,
+    positions_of,
+)
 from antikol.positioning.reported import ReportedFirst, ReportedSettings
 from antikol.report import VehicleReport
 from antikol.table import CLOCK_WINDOW_S, TableUpdate, VehicleTable
 from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
-from trackmap import Path, TrackMap
+from trackmap import TrackMap
 
 __all__ = ["Analyser", "AnalyserConfig", "PositionSource", "Zone"]
 
@@ -160,31 +171,6 @@ class AnalyserConfig:
             raise InvalidArgumentError(
                 "rear_end_model", self.rear_end_model, "must be 'on_sight' or 'moving_leader'"
             )
-
-
-@dataclass(frozen=True, slots=True)
-class Zone:
-    """One zone of the sensitivity area (a branch of the track ahead).
-
-    Attributes
-    ----------
-    label : str
-        ``main`` or the choices at facing switches (``straight/left``...).
-    role : str
-        ``warning`` or ``advisory`` (a branch off the known planned route).
-    path : trackmap.Path
-    corridor : shapely.Polygon
-        The corridor along the path in the map's local frame (metres).
-    probability : float
-        Probability of the own match hypothesis the zone starts from, times the
-        probability of taking this branch.
-    """
-
-    label: str
-    role: Literal["warning", "advisory"]
-    path: Path
-    corridor: shapely.Polygon
-    probability: float
 
 
 class Analyser:
@@ -754,7 +740,7 @@ class Analyser:
             raise RuntimeError("views need a map")
         self._flush()
         reports = list(self.table)
-        positions = [source.position(r.vehicle_id, now) for r in reports]
+        positions = positions_of(source, [r.vehicle_id for r in reports], now)
         cycle = build_views(
             self.track_map,
             reports,

@@ -1,10 +1,15 @@
-"""Records produced by the analyser: threats, suppressed vehicles and assessments."""
+"""Records produced by the analyser: threats, suppressed vehicles, assessments and the
+zones of a sensitivity area."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
+
+import shapely
 
 from antikol.kinds import LEVELS, Level, Method, ThreatKind, level_rank, max_level
+from trackmap import Path
 
 __all__ = [
     "LEVELS",
@@ -14,6 +19,7 @@ __all__ = [
     "Suppressed",
     "Threat",
     "ThreatKind",
+    "Zone",
     "highest_level",
     "level_rank",
     "sort_threats",
@@ -147,3 +153,28 @@ def sort_threats(threats: list[Threat]) -> tuple[Threat, ...]:
 def highest_level(threats: tuple[Threat, ...] | list[Threat]) -> Level:
     """Highest level among threats, ``none`` if empty."""
     return max_level(*(th.level for th in threats))
+
+
+@dataclass(frozen=True, slots=True)
+class Zone:
+    """One zone of the sensitivity area (a branch of the track ahead).
+
+    Attributes
+    ----------
+    label : str
+        ``main`` or the choices at facing switches (``straight/left``...).
+    role : str
+        ``warning`` or ``advisory`` (a branch off the known planned route).
+    path : trackmap.Path
+    corridor : shapely.Polygon
+        The corridor along the path in the map's local frame (metres).
+    probability : float
+        Probability of the own match hypothesis the zone starts from, times the
+        probability of taking this branch.
+    """
+
+    label: str
+    role: Literal["warning", "advisory"]
+    path: Path
+    corridor: shapely.Polygon
+    probability: float

@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from antikol.gcpause import gc_paused
 from antikol.kinds import PositionStatus
 from antikol.positioning.alongtrack import run_track_filters
 from antikol.positioning.branching import Arrivals, hold_at_switch, passed_switches
@@ -63,6 +64,12 @@ from antikol.positioning.fleet import (
     report_dict,
 )
 from antikol.positioning.kalman import track_estimate
+from antikol.positioning.outputs import (
+    Placement,
+    hypotheses_of,
+    track_positions,
+    unmatched_position,
+)
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
@@ -157,6 +164,7 @@ class Positioner:
             raise RuntimeError(f"no state for {report.vehicle_id!r} after an update")
         return out
 
+    @gc_paused
     def update_many(
         self, reports: Sequence[VehicleReport], *, outputs: bool = True
     ) -> list[TrackPosition]:
@@ -187,12 +195,7 @@ class Positioner:
             self._update_pass(batch)
         if not outputs:
             return []
-        out = []
-        for r in reports:
-            p = self.position(r.vehicle_id)
-            if p is not None:
-                out.append(p)
-        return out
+        return [p for p in self.positions([r.vehicle_id for r in reports]) if p is not None]
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
         """The vehicle's position at time ``t`` (dead-reckoned when later than its report).
@@ -208,18 +211,48 @@ class Positioner:
         TrackPosition or None
             None for a vehicle never seen.
         """
-        row = self._row.get(vehicle_id)
-        if row is None:
-            return None
-        last = self._f.last[row]
-        if last is None:
-            return None
-        when = last.t if t is None else max(float(t), last.t)
-        cached = self._cache.get(vehicle_id)
-        if cached is not None and cached.t == when:
-            return cached
-        out = self._output(vehicle_id, row, when)
-        self._cache[vehicle_id] = out
+        return self.positions([vehicle_id], t)[0]
+
+    @gc_paused
+    def positions(
+        self, vehicle_ids: Sequence[str], t: float | None = None
+    ) -> list[TrackPosition | None]:
+        """:meth:`position` of many vehicles at once (their geometry in array calls, see
+        :mod:`antikol.positioning.outputs`); ``t`` None: each at its last report."""
+        out: list[TrackPosition | None] = [None] * len(vehicle_ids)
+        placed: dict[str, tuple[Placement, list[int]]] = {}
+        asked: list[tuple[int, str, int, float]] = []
+        for k, vid in enumerate(vehicle_ids):
+            row = self._row.get(vid)
+            last = None if row is None else self._f.last[row]
+            if row is None or last is None:
+                continue
+            when = last.t if t is None else max(float(t), last.t)
+            cached = self._cache.get(vid)
+            if cached is not None and cached.t == when:
+                out[k] = cached
+            elif self._f.unmatched[row] or self._f.hs[row, 0] < 0 or math.isnan(self._f.kf.t[row]):
+                out[k] = self._cache[vid] = unmatched_position(last, when)
+            else:
+                asked.append((k, vid, row, when))
+        if asked:
+            rows = np.array([row for _, _, row, _ in asked], dtype=np.int64)
+            when_s = np.array([when for _, _, _, when in asked], dtype=float)
+            est = track_estimate(self._f.kf, rows, when_s, self.config.accel_sigma_mps2)
+            hyps = self._hypotheses_of(rows)
+            for i, (k, vid, row, when) in enumerate(asked):
+                if vid in placed:
+                    placed[vid][1].append(k)
+                    continue
+                place = self._place(vid, row, when, est[0][i], est[1][i], est[2][i], hyps[i])
+                placed[vid] = (place, [k])
+        todo = list(placed.values())
+        for (_, where), pos in zip(
+            todo, track_positions(self.net, [p for p, _ in todo]), strict=True
+        ):
+            self._cache[pos.vehicle_id] = pos
+            for k in where:
+                out[k] = pos
         return out
 
     def forget(self, vehicle_id: str) -> None:
@@ -534,21 +567,14 @@ class Positioner:
 
     # -- outputs -------------------------------------------------------------------------
     def _hypotheses(self, row: int) -> tuple[Hypothesis, ...]:
-        out = []
-        for k in np.flatnonzero(self._f.hs[row] >= 0):
-            s = int(self._f.hs[row, k])
-            out.append(
-                Hypothesis(
-                    edge_id=s >> 1,
-                    direction=1 - 2 * (s & 1),
-                    offset_m=float(self._f.ho[row, k]),
-                    probability=float(math.exp(self._f.hp[row, k])),
-                    progress_m=float(self._f.hg[row, k]),
-                    wrong_way=not bool(self.reach.allowed[s]),
-                    wrong_way_s=float(self._f.hw[row, k]),
-                )
-            )
-        return tuple(out)
+        return self._hypotheses_of(np.array([row], dtype=np.int64))[0]
+
+    def _hypotheses_of(self, rows: IntArray) -> list[tuple[Hypothesis, ...]]:
+        """The hypotheses of many vehicles, read from the arrays at once."""
+        f = self._f
+        return hypotheses_of(
+            f.hs[rows], f.ho[rows], f.hp[rows], f.hg[rows], f.hw[rows], self.reach.allowed
+        )
 
     def _place_probabilities(self, rows: IntArray) -> FloatArray:
         """Probability of each vehicle's reported place: its hypothesis plus those at the
@@ -567,28 +593,22 @@ class Positioner:
         same[:, 0] = True
         return np.minimum(np.sum(np.where(same & (hs >= 0), prob, 0.0), axis=1), 1.0)
 
-    def _output(self, vid: str, row: int, t: float) -> TrackPosition:
+    def _place(
+        self,
+        vid: str,
+        row: int,
+        t: float,
+        s: Any,
+        v: Any,
+        s_std: Any,
+        hyps: tuple[Hypothesis, ...],
+    ) -> Placement:
+        """Where a matched vehicle is at ``t`` from its along-track estimate (``s``, ``v``,
+        ``s_std``: m, m/s, m) and hypotheses."""
         c = self.config
         last = self._f.last[row]
-        if last is None:  # pragma: no cover - position() asks only for reported vehicles
+        if last is None:  # pragma: no cover - positions() asks only for reported vehicles
             raise RuntimeError(f"positioning state of {vid!r} without a report")
-        if self._f.unmatched[row] or self._f.hs[row, 0] < 0 or math.isnan(self._f.kf.t[row]):
-            return TrackPosition(
-                vehicle_id=vid,
-                t=t,
-                status="unmatched",
-                edge_id=None,
-                direction=None,
-                offset_m=None,
-                lon=last.lon,
-                lat=last.lat,
-                heading_deg=None,
-                speed_mps=last.speed_mps,
-                probability=0.0,
-                sigma_m=None,
-            )
-        s, v, s_std, _ = track_estimate(self._f.kf, row, np.float64(t), c.accel_sigma_mps2)
-        hyps = self._hypotheses(row)
         first = hyps[0]
         moved = advance(
             self.net,
@@ -610,8 +630,6 @@ class Positioner:
             edge, off, direction, past_m, _ = held
             s_std, place_p = s_std + past_m, float(self._f.place[row])
         self._passed[vid] = passed_switches(self._arrivals, edge, off, direction)
-        x, y = self.net.point_at(edge, off)
-        lon, lat = self.net.to_lonlat(x, y)
         age = t - float(self._f.t_fix[row])
         odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
         if math.isfinite(odometer_run):
@@ -625,22 +643,19 @@ class Positioner:
             status = "confident"
         else:
             status = "ambiguous"
-        return TrackPosition(
-            vehicle_id=vid,
-            t=t,
-            status=status,
-            edge_id=edge,
-            direction=direction,
-            offset_m=off,
-            lon=float(lon),
-            lat=float(lat),
-            heading_deg=self.net.heading_at(edge, off, direction),
-            speed_mps=float(v),
-            probability=place_p,
-            sigma_m=float(s_std),
-            wrong_way=first.wrong_way,
-            hypotheses=hyps,
-            dead_reckoned_s=max(age, 0.0),
+        return Placement(
+            vid,
+            t,
+            status,
+            edge,
+            direction,
+            off,
+            float(v),
+            place_p,
+            float(s_std),
+            first.wrong_way,
+            hyps,
+            max(age, 0.0),
         )
 
     # -- discrete fixes ------------------------------------------------------------------

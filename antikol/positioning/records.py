@@ -9,7 +9,14 @@ from typing import Protocol
 from antikol.kinds import PositionStatus
 from antikol.report import VehicleReport
 
-__all__ = ["DiscreteFix", "FixPoint", "Hypothesis", "PositionSource", "TrackPosition"]
+__all__ = [
+    "DiscreteFix",
+    "FixPoint",
+    "Hypothesis",
+    "PositionSource",
+    "TrackPosition",
+    "positions_of",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +128,8 @@ class PositionSource(Protocol):
 
     Fleet-scale replay (:mod:`antikol.evaluation.fleet`) positions every vehicle alone
     first and then hands the stored positions to the pairwise analysis through this hook.
+    ``positions`` (many vehicles at once) is optional: the analyser asks ``position`` of
+    each vehicle when a source has none.
     """
 
     def update_many(
@@ -129,4 +138,19 @@ class PositionSource(Protocol):
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None: ...
 
+    def positions(
+        self, vehicle_ids: Sequence[str], t: float | None = None
+    ) -> list[TrackPosition | None]: ...
+
     def forget(self, vehicle_id: str) -> None: ...
+
+
+def positions_of(
+    source: PositionSource, vehicle_ids: Sequence[str], t: float | None = None
+) -> list[TrackPosition | None]:
+    """The positions of many vehicles from a source: its ``positions`` when it has one,
+    else its ``position`` of each (a caller's own source may have only that)."""
+    many = getattr(source, "positions", None)
+    if many is not None:
+        return list(many(vehicle_ids, t))
+    return [source.position(v, t) for v in vehicle_ids]

@@ -36,7 +36,7 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 from antikol.positioning.deadreckoning import Advanced, advance
-from antikol.positioning.records import Hypothesis, PositionSource, TrackPosition
+from antikol.positioning.records import Hypothesis, PositionSource, TrackPosition, positions_of
 from antikol.report import ReportedTrackPosition, VehicleReport
 from trackmap import TrackMap
 
@@ -167,10 +167,26 @@ class ReportedFirst:
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
         """The vehicle's position at ``t`` (s): from its reported track position when its
         newest report had a usable one, else from ``inner``."""
-        report = self._latest.get(vehicle_id)
-        if report is None:
-            return self.inner.position(vehicle_id, t)
-        return self._carried(report, report.t if t is None else float(t))
+        return self.positions([vehicle_id], t)[0]
+
+    def positions(
+        self, vehicle_ids: Sequence[str], t: float | None = None
+    ) -> list[TrackPosition | None]:
+        """:meth:`position` of many vehicles, those without a used reported position
+        asked of ``inner`` together."""
+        out: list[TrackPosition | None] = [None] * len(vehicle_ids)
+        matched: list[int] = []
+        for k, vid in enumerate(vehicle_ids):
+            report = self._latest.get(vid)
+            if report is None:
+                matched.append(k)
+            else:
+                out[k] = self._carried(report, report.t if t is None else float(t))
+        if matched:
+            inner = positions_of(self.inner, [vehicle_ids[k] for k in matched], t)
+            for k, pos in zip(matched, inner, strict=True):
+                out[k] = pos
+        return out
 
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle (it left the table)."""

@@ -232,5 +232,11 @@ class StoredPositions:
             raise LookupError(f"no stored position of {vehicle_id!r} at t={t} s (cycle {k})")
         return rec.position
 
+    def positions(
+        self, vehicle_ids: Sequence[str], t: float | None = None
+    ) -> list[TrackPosition | None]:
+        """:meth:`position` of many vehicles."""
+        return [self.position(vid, t) for vid in vehicle_ids]
+
     def forget(self, vehicle_id: str) -> None:
         """Nothing to forget: stored positions have no state."""

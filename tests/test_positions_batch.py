@@ -1,0 +1,58 @@
+"""Positions of many vehicles at once: the same records as one vehicle at a time."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+import trackmap
+from antikol.positioning.matcher import Positioner
+from antikol.sim import GpsModel, Simulator, fleet
+
+
+@pytest.fixture(scope="module")
+def city():
+    net = trackmap.load_default()
+    specs = fleet(net, 12, 7, route_length_m=2000.0)
+    result = Simulator(net, specs, gps=GpsModel.urban(), seed=7).run(90.0)
+    return net, result.reports
+
+
+def _fed(net, reports, until_s):
+    pos = Positioner(net)
+    by_t: dict[float, list] = {}
+    for r in reports:
+        if r.t <= until_s:
+            by_t.setdefault(r.t, []).append(r)
+    for t in sorted(by_t):
+        pos.update_many(by_t[t], outputs=False)
+    return pos
+
+
+@pytest.mark.parametrize("until_s", [20.0, 60.0, 90.0])
+def test_positions_are_those_of_one_vehicle_at_a_time(city, until_s):
+    net, reports = city
+    one, many = _fed(net, reports, until_s), _fed(net, reports, until_s)
+    ids = sorted(one.vehicles())
+    at = until_s + 1.5  # dead-reckoned a little past the last reports
+    single = [one.position(v, at) for v in ids]
+    batch = many.positions([*ids, "nobody", ids[0]], at)
+    assert batch[:-2] == single  # bit for bit, every field
+    assert batch[-2] is None
+    assert batch[-1] == batch[0]
+    statuses = {p.status for p in batch if p is not None}
+    assert "confident" in statuses
+    # each at its last report when no time is given
+    assert many.positions(ids) == [one.position(v) for v in ids]
+
+
+def test_an_unmatched_vehicle_stands_where_its_fix_is(city):
+    net, reports = city
+    first = reports[0]
+    far = dataclasses.replace(first, vehicle_id="far", lat=first.lat + 0.5, lon=first.lon)
+    pos = Positioner(net)
+    pos.update_many([far], outputs=False)
+    (p,) = pos.positions(["far"])
+    assert p is not None and p.status == "unmatched"
+    assert (p.lon, p.lat, p.edge_id) == (far.lon, far.lat, None)
