@@ -15,10 +15,10 @@ decided either. Of several undecided switches the vehicle is held at the
 earliest: a later one lies on a branch of it that is not decided either. A position carried
 past a switch by the along-track filter before any hypothesis has passed it is undecided too.
 
-Once a vehicle has been reported past a switch on a branch, it is held at that switch again
-(``released``) only when that branch has lost the majority: stepping back to the switch
-breaks the chain of reported positions as much as a branch change does, and a share
-wavering around the threshold would step back and forth.
+Once a vehicle has been reported more than a few metres past a switch on a branch, it is
+held at that switch again (``released``) only when that branch has lost the majority:
+stepping back to the switch breaks the chain of reported positions as much as a branch
+change does, and a share wavering around the threshold would step back and forth.
 """
 
 from __future__ import annotations
@@ -39,6 +39,10 @@ DECIDED_SHARE = 0.9
 #: Once reported past a switch, the vehicle is held at it again only when the branch it
 #: was reported on holds less than this share.
 RELEASED_SHARE = 0.5
+#: A step back to a switch it was reported past this short is no break in the chain of
+#: reported positions (what :func:`~antikol.evaluation.positioning_accuracy.disconnected_windows`
+#: allows), m: the hysteresis of ``RELEASED_SHARE`` applies beyond it.
+STEP_BACK_M = 10.0
 #: Hypotheses are followed back this far to find the switch they passed, m.
 LOOKBACK_M = HOLD_M + 40.0
 
@@ -179,8 +183,9 @@ def hold_at_switch(
     edge, offset, direction
         The position it would report (edge id, m from the edge's start, +1/-1).
     released : collection of int
-        Nodes of switches the vehicle has already been reported past: held at again only
-        while the branch holds less than :data:`RELEASED_SHARE`.
+        Nodes of switches the vehicle has already been reported past: held at again, more
+        than :data:`STEP_BACK_M` behind, only while the branch holds less than
+        :data:`RELEASED_SHARE`.
     route : collection of int, optional
         Edge ids of the vehicle's planned route: a branch on it is decided.
 
@@ -212,7 +217,7 @@ def hold_at_switch(
                 mine += p
             elif taken is not None or (h.edge_id, h.direction) == trunk:
                 others += p  # on another branch, or still before the switch
-        decided = RELEASED_SHARE if node in released else DECIDED_SHARE
+        decided = RELEASED_SHARE if node in released and past > STEP_BACK_M else DECIDED_SHARE
         if mine > 0.0 and mine / (mine + others) >= decided:
             continue
         t_edge, t_dir = trunk
