@@ -30,7 +30,7 @@ from typing import NamedTuple
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
-__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch", "passed_switches"]
+__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch"]
 
 #: Past a switch farther than this, the branch is reported even if undecided, m.
 HOLD_M = 40.0
@@ -62,6 +62,7 @@ class Arrivals:
         self._facing: dict[State, bool] = {}
         self._skeletons: dict[State, tuple[tuple[int, float, State, bool], ...]] = {}
         self._passed: dict[State, frozenset[int]] = {}
+        self._switches: dict[State, tuple[tuple[int, float, State], ...]] = {}
 
     def trunk(self, node: int, edge: int, direction: int) -> tuple[int, int] | None:
         """A state arriving at ``node`` from which ``(edge, direction)`` is entered."""
@@ -125,12 +126,22 @@ class Arrivals:
         self._skeletons[start] = result
         return result
 
+    def switches(self, state: State) -> tuple[tuple[int, float, State], ...]:
+        """The facing switches of :meth:`skeleton`, nearest first (cached): (node, metres of
+        track between it and the entry of ``state``, the state entered there)."""
+        cached = self._switches.get(state)
+        if cached is None:
+            cached = tuple((n, b, s) for n, b, s, switch in self.skeleton(state) if switch)
+            self._switches[state] = cached
+        return cached
+
     def switches_behind(self, state: State) -> frozenset[int]:
         """Nodes of the facing switches a vehicle in ``state`` came through (cached), up to
-        :data:`LOOKBACK_M` behind the entry of its edge."""
+        :data:`LOOKBACK_M` behind the entry of its edge: for ``released`` of
+        :func:`hold_at_switch`, from the state a vehicle was last reported in."""
         cached = self._passed.get(state)
         if cached is None:
-            cached = frozenset(n for n, _, _, switch in self.skeleton(state) if switch)
+            cached = frozenset(n for n, _, _ in self.switches(state))
             self._passed[state] = cached
         return cached
 
@@ -194,11 +205,16 @@ def hold_at_switch(
     SwitchHold or None
     """
     net = arrivals.net
+    behind_us = arrivals.switches((edge, direction))
+    if not behind_us:
+        return None
     past0 = offset if direction == 1 else net.edge_length(edge) - offset
+    if past0 + behind_us[0][1] > HOLD_M:  # the nearest switch is too far behind
+        return None
     switches = [
         (node, past0 + behind, state)
-        for node, behind, state, switch in arrivals.skeleton((edge, direction))
-        if switch and past0 + behind <= HOLD_M and not (route and state[0] in route)
+        for node, behind, state in behind_us
+        if past0 + behind <= HOLD_M and not (route and state[0] in route)
     ]
     if not switches:
         return None
@@ -224,10 +240,3 @@ def hold_at_switch(
         end = net.edges[t_edge].length_m if t_dir == 1 else 0.0
         return SwitchHold(t_edge, end, t_dir, past, node)
     return None
-
-
-def passed_switches(arrivals: Arrivals, edge: int, offset: float, direction: int) -> frozenset[int]:
-    """The nodes of the facing switches a reported position has run past, on the edges it
-    came by up to :data:`LOOKBACK_M` behind its edge (for ``released`` of
-    :func:`hold_at_switch`; ``offset`` does not matter)."""
-    return arrivals.switches_behind((edge, direction))
