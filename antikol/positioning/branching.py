@@ -11,11 +11,11 @@ The switch is found by following each hypothesis back along the track it came by
 (:meth:`Arrivals.before`), so a switch a few short edges behind the reported position counts
 as well as one at the start of its edge, and a hypothesis on another branch counts however
 its branch is cut into edges; a hypothesis still on the track before the switch has not
-decided either. Of several undecided switches the vehicle is held at the
-earliest: a later one lies on a branch of it that is not decided either. A position carried
-past a switch by the along-track filter before any hypothesis has passed it is undecided too.
+decided either. Of several undecided switches the vehicle is held at the earliest: a later
+one lies on a branch of it that is not decided either. A position carried past a switch by
+the along-track filter before any hypothesis has passed it is undecided too.
 
-Once a vehicle has been reported more than a few metres past a switch on a branch, it is
+Once a vehicle has been reported more than ``STEP_BACK_M`` past a switch on a branch, it is
 held at that switch again (``released``) only when that branch has lost the majority:
 stepping back to the switch breaks the chain of reported positions as much as a branch
 change does, and a share wavering around the threshold would step back and forth.
