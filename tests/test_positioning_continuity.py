@@ -67,6 +67,26 @@ def test_a_fix_far_off_along_the_track_does_not_move_the_reported_position(strai
     assert pos.stats["along_outlier"] == 1
 
 
+def test_a_fix_no_place_explains_is_dead_reckoned_over(straight):
+    # 20 m beside the track and 20 m ahead of where the odometer puts the vehicle: within
+    # the search radius and what physics allows, but every candidate explains it badly;
+    # the hypotheses used to move to it
+    speed = 10.0
+    t = np.arange(0.0, 14.0, 1.0)
+    reports = _with_odometer(
+        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
+    )
+    reports[10] = _moved(reports[10], 20.0, 20.0)
+    pos = Positioner(straight)
+    for r in reports[:11]:
+        pos.update(r)
+    assert pos.stats["outlier_fix"] == 1
+    assert pos.hypotheses("V")[0].offset_m == pytest.approx(200.0, abs=3.0)
+    out = [pos.update(r) for r in reports[11:]]
+    assert all(p.status == "confident" for p in out)
+    assert out[-1].offset_m == pytest.approx(230.0, abs=3.0)
+
+
 def test_a_lasting_along_track_offset_still_restarts_the_filter(straight):
     # the second gated innovation in a row is no outlier: the filter follows the fixes
     speed = 10.0
@@ -177,15 +197,17 @@ def test_not_held_again_at_a_switch_reported_past_unless_the_branch_lost(switch_
     arrivals = Arrivals(net)
     toe = branch.start_node
 
-    def hyps(p: float) -> list[Hypothesis]:
-        return [
-            Hypothesis(branch.edge_id, 1, 8.0, p, 0.0),
-            Hypothesis(straight, 1, 8.0, 1 - p, 0.0),
+    def hold(p: float, at_m: float, released: set[int]):
+        hyps = [
+            Hypothesis(branch.edge_id, 1, at_m, p, 0.0),
+            Hypothesis(straight, 1, at_m, 1 - p, 0.0),
         ]
+        return hold_at_switch(arrivals, hyps, branch.edge_id, at_m, 1, released=released)
 
-    assert hold_at_switch(arrivals, hyps(0.8), branch.edge_id, 8.0, 1) is not None
-    assert hold_at_switch(arrivals, hyps(0.8), branch.edge_id, 8.0, 1, released={toe}) is None
-    assert hold_at_switch(arrivals, hyps(0.4), branch.edge_id, 8.0, 1, released={toe}) is not None
+    assert hold(0.8, 15.0, set()) is not None
+    assert hold(0.8, 15.0, {toe}) is None  # a 15 m step back: kept on the branch
+    assert hold(0.4, 15.0, {toe}) is not None  # the branch lost the majority
+    assert hold(0.8, 6.0, {toe}) is not None  # a step back of a few metres is no break
 
 
 # -- dead reckoning through a switch -----------------------------------------------------------

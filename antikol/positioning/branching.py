@@ -11,14 +11,14 @@ The switch is found by following each hypothesis back along the track it came by
 (:meth:`Arrivals.before`), so a switch a few short edges behind the reported position counts
 as well as one at the start of its edge, and a hypothesis on another branch counts however
 its branch is cut into edges; a hypothesis still on the track before the switch has not
-decided either. Of several undecided switches the vehicle is held at the
-earliest: a later one lies on a branch of it that is not decided either. A position carried
-past a switch by the along-track filter before any hypothesis has passed it is undecided too.
+decided either. Of several undecided switches the vehicle is held at the earliest: a later
+one lies on a branch of it that is not decided either. A position carried past a switch by
+the along-track filter before any hypothesis has passed it is undecided too.
 
-Once a vehicle has been reported past a switch on a branch, it is held at that switch again
-(``released``) only when that branch has lost the majority: stepping back to the switch
-breaks the chain of reported positions as much as a branch change does, and a share
-wavering around the threshold would step back and forth.
+Once a vehicle has been reported more than ``STEP_BACK_M`` past a switch on a branch, it is
+held at that switch again (``released``) only when that branch has lost the majority:
+stepping back to the switch breaks the chain of reported positions as much as a branch
+change does, and a share wavering around the threshold would step back and forth.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import NamedTuple
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
-__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch", "passed_switches"]
+__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch"]
 
 #: Past a switch farther than this, the branch is reported even if undecided, m.
 HOLD_M = 40.0
@@ -39,6 +39,10 @@ DECIDED_SHARE = 0.9
 #: Once reported past a switch, the vehicle is held at it again only when the branch it
 #: was reported on holds less than this share.
 RELEASED_SHARE = 0.5
+#: A step back to a switch it was reported past this short is no break in the chain of
+#: reported positions (what :func:`~antikol.evaluation.positioning_accuracy.disconnected_windows`
+#: allows), m: the hysteresis of ``RELEASED_SHARE`` applies beyond it.
+STEP_BACK_M = 10.0
 #: Hypotheses are followed back this far to find the switch they passed, m.
 LOOKBACK_M = HOLD_M + 40.0
 
@@ -58,6 +62,7 @@ class Arrivals:
         self._facing: dict[State, bool] = {}
         self._skeletons: dict[State, tuple[tuple[int, float, State, bool], ...]] = {}
         self._passed: dict[State, frozenset[int]] = {}
+        self._switches: dict[State, tuple[tuple[int, float, State], ...]] = {}
 
     def trunk(self, node: int, edge: int, direction: int) -> tuple[int, int] | None:
         """A state arriving at ``node`` from which ``(edge, direction)`` is entered."""
@@ -121,12 +126,22 @@ class Arrivals:
         self._skeletons[start] = result
         return result
 
+    def switches(self, state: State) -> tuple[tuple[int, float, State], ...]:
+        """The facing switches of :meth:`skeleton`, nearest first (cached): (node, metres of
+        track between it and the entry of ``state``, the state entered there)."""
+        cached = self._switches.get(state)
+        if cached is None:
+            cached = tuple((n, b, s) for n, b, s, switch in self.skeleton(state) if switch)
+            self._switches[state] = cached
+        return cached
+
     def switches_behind(self, state: State) -> frozenset[int]:
         """Nodes of the facing switches a vehicle in ``state`` came through (cached), up to
-        :data:`LOOKBACK_M` behind the entry of its edge."""
+        :data:`LOOKBACK_M` behind the entry of its edge: for ``released`` of
+        :func:`hold_at_switch`, from the state a vehicle was last reported in."""
         cached = self._passed.get(state)
         if cached is None:
-            cached = frozenset(n for n, _, _, switch in self.skeleton(state) if switch)
+            cached = frozenset(n for n, _, _ in self.switches(state))
             self._passed[state] = cached
         return cached
 
@@ -179,8 +194,9 @@ def hold_at_switch(
     edge, offset, direction
         The position it would report (edge id, m from the edge's start, +1/-1).
     released : collection of int
-        Nodes of switches the vehicle has already been reported past: held at again only
-        while the branch holds less than :data:`RELEASED_SHARE`.
+        Nodes of switches the vehicle has already been reported past: held at again, more
+        than :data:`STEP_BACK_M` behind, only while the branch holds less than
+        :data:`RELEASED_SHARE`.
     route : collection of int, optional
         Edge ids of the vehicle's planned route: a branch on it is decided.
 
@@ -189,11 +205,16 @@ def hold_at_switch(
     SwitchHold or None
     """
     net = arrivals.net
+    behind_us = arrivals.switches((edge, direction))
+    if not behind_us:
+        return None
     past0 = offset if direction == 1 else net.edge_length(edge) - offset
+    if past0 + behind_us[0][1] > HOLD_M:  # the nearest switch is too far behind
+        return None
     switches = [
         (node, past0 + behind, state)
-        for node, behind, state, switch in arrivals.skeleton((edge, direction))
-        if switch and past0 + behind <= HOLD_M and not (route and state[0] in route)
+        for node, behind, state in behind_us
+        if past0 + behind <= HOLD_M and not (route and state[0] in route)
     ]
     if not switches:
         return None
@@ -212,17 +233,10 @@ def hold_at_switch(
                 mine += p
             elif taken is not None or (h.edge_id, h.direction) == trunk:
                 others += p  # on another branch, or still before the switch
-        decided = RELEASED_SHARE if node in released else DECIDED_SHARE
+        decided = RELEASED_SHARE if node in released and past > STEP_BACK_M else DECIDED_SHARE
         if mine > 0.0 and mine / (mine + others) >= decided:
             continue
         t_edge, t_dir = trunk
         end = net.edges[t_edge].length_m if t_dir == 1 else 0.0
         return SwitchHold(t_edge, end, t_dir, past, node)
     return None
-
-
-def passed_switches(arrivals: Arrivals, edge: int, offset: float, direction: int) -> frozenset[int]:
-    """The nodes of the facing switches a reported position has run past, on the edges it
-    came by up to :data:`LOOKBACK_M` behind its edge (for ``released`` of
-    :func:`hold_at_switch`; ``offset`` does not matter)."""
-    return arrivals.switches_behind((edge, direction))

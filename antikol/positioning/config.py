@@ -76,6 +76,11 @@ class PositioningConfig:
         outlier — a far multipath fix near another track — and is rejected like a fix with
         no track within the search radius: the vehicle keeps its hypotheses and is
         dead-reckoned, until ``max_rejections_in_row`` such fixes in a row restart it.
+    outlier_fix_nats : float
+        Likewise a fix whose best candidate scores a log-likelihood (of the move and of the
+        fix, with its hypothesis' probability; about -6 for a typical fix, -8 at the
+        emission's heavy-tailed floor) below minus this: no place explains it, it is
+        dead-reckoned over (the ``max_rejections_in_row``-th in a row is taken as it is).
     confidence : float
         A match is ``confident`` when the best place holds at least this probability.
     switch_probability : float
@@ -141,6 +146,7 @@ class PositioningConfig:
     relocation_log_prior: float = math.log(1e-5)
     transition_beta_m: float = 6.0
     implausible_move_nats: float = 25.0
+    outlier_fix_nats: float = 20.0
     confidence: float = 0.8
     switch_probability: float = 0.75
     max_speed_mps: float = 30.0

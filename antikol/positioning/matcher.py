@@ -51,7 +51,7 @@ import numpy.typing as npt
 from antikol.gcpause import gc_paused
 from antikol.kinds import PositionStatus
 from antikol.positioning.alongtrack import run_track_filters
-from antikol.positioning.branching import Arrivals, hold_at_switch, passed_switches
+from antikol.positioning.branching import Arrivals, hold_at_switch
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
@@ -128,8 +128,9 @@ class Positioner:
         self._f.grow(64)
         self._free: list[int] = list(range(63, -1, -1))
         self._cache: dict[str, TrackPosition] = {}
-        # facing switches each vehicle was last reported past (see branching.hold_at_switch)
-        self._passed: dict[str, frozenset[int]] = {}
+        # the (edge, direction) each vehicle was last reported on: the switches behind it
+        # are released (branching.hold_at_switch)
+        self._reported: dict[str, tuple[int, int]] = {}
         self._loops = loop_edges(track_map, self.config.search_radius_m)
 
     # -- fleet storage -------------------------------------------------------------------
@@ -259,7 +260,7 @@ class Positioner:
         """Drop a vehicle's state (it left the vehicle table)."""
         row = self._row.pop(vehicle_id, None)
         self._cache.pop(vehicle_id, None)
-        self._passed.pop(vehicle_id, None)
+        self._reported.pop(vehicle_id, None)
         self.fixes.forget(vehicle_id)
         if row is not None:
             self._f.clear(row)
@@ -622,14 +623,16 @@ class Positioner:
         )
         edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
         place_p = float(self._f.place[row]) * moved.branch_share
-        released = self._passed.get(vid, frozenset())
-        held = hold_at_switch(
-            self._arrivals, hyps, edge, off, direction, released=released, route=last.route
-        )
-        if held is not None:
-            edge, off, direction, past_m, _ = held
-            s_std, place_p = s_std + past_m, float(self._f.place[row])
-        self._passed[vid] = passed_switches(self._arrivals, edge, off, direction)
+        if self._arrivals.switches((edge, direction)):  # a switch behind: held there?
+            before = self._reported.get(vid)
+            released = self._arrivals.switches_behind(before) if before else frozenset()
+            held = hold_at_switch(
+                self._arrivals, hyps, edge, off, direction, released=released, route=last.route
+            )
+            if held is not None:
+                edge, off, direction, past_m, _ = held
+                s_std, place_p = s_std + past_m, float(self._f.place[row])
+        self._reported[vid] = (edge, direction)
         age = t - float(self._f.t_fix[row])
         odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
         if math.isfinite(odometer_run):

@@ -42,14 +42,15 @@ class Scored:
     """The candidate states of a batch of fixes, scored (parallel arrays).
 
     Per fix: ``unmatched`` (no candidate), ``stuck`` (the vehicle has hypotheses but none
-    reaches a candidate by a plausible move, or there is no candidate: the fix is an
-    outlier and rejected), ``fresh`` (the vehicle starts afresh), ``rejected`` (its
-    rejections in a row after this step) and ``along_sigma`` (the fix's error along the
-    track, m). Per candidate state: the fix it belongs to (``cv``), the state id (``cs``),
-    the offset (``co``, m), the log-probability (``log_p``), the progress along its
-    lineage (``progress``, m), the parent slot (``parent``, -1 for a new lineage), the time
-    running wrong way (``wrong_way_s``) and the GPS bias estimate (``bias``: east, north, m;
-    covariance, m²). ``stats`` counts what happened.
+    reaches a candidate by a plausible move, there is no candidate, or the best candidate
+    scores below ``-outlier_fix_nats``: the fix is an outlier and rejected), ``fresh``
+    (the vehicle starts afresh), ``rejected`` (its rejections in a row after this step) and
+    ``along_sigma`` (the fix's error along the track, m). Per candidate state: the fix it
+    belongs to (``cv``), the state id (``cs``), the offset (``co``, m), the log-probability
+    (``log_p``), the progress along its lineage (``progress``, m), the parent slot
+    (``parent``, -1 for a new lineage), the time running wrong way (``wrong_way_s``) and
+    the GPS bias estimate (``bias``: east, north, m; covariance, m²). ``stats`` counts what
+    happened.
     """
 
     unmatched: BoolArray
@@ -257,6 +258,17 @@ def score_fixes(
         stats["relocated"] += int(np.count_nonzero(moved))
     use0 = use0 | moved
     new_lp = np.where(fresh[cv], score0, lse)
+    # a fix every candidate explains worse than ``outlier_fix_nats`` (log-likelihood of the
+    # step, the hypothesis' probability included) is an outlier as well
+    top_lp = np.full(n, _NEG_INF)
+    np.maximum.at(top_lp, cv, new_lp)
+    poor = ~fresh & ~unmatched & ~stuck & (top_lp < -c.outlier_fix_nats)
+    if poor.any():
+        stats["outlier_fix"] += int(np.count_nonzero(poor))
+        rejected = rejected + poor
+        again = poor & (rejected >= c.max_rejections_in_row)
+        stuck = stuck | (poor & ~again)
+        rejected[again] = 0
     new_prog = np.where(use0, 0.0, fleet.hg[prow][ar, best] + dist[ar, best])
     new_parent = np.where(use0, -1, best)
     new_ww = np.where(wrong, np.where(use0, 0.0, fleet.hw[prow][ar, best] + dt[cv]), 0.0)
