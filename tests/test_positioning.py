@@ -241,3 +241,23 @@ def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
     assert hold_at_switch(arrivals, hyps(0.95, 6.0), branch, 6.0, 1) is None  # decided
     assert hold_at_switch(arrivals, hyps(0.6, 50.0), branch, 50.0, 1) is None  # far past it
     assert hold_at_switch(arrivals, hyps(1.0, 6.0)[:1], branch, 6.0, 1) is None  # no rival
+
+
+def test_a_restored_state_goes_on_as_the_original_past_a_switch(tmp_path):
+    # the hold at a switch remembers where the vehicle was last reported: a state restored
+    # in another process (fleet replay) carries it, and the vehicle goes on as the original
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    pts = [(0.0, -200.0), (0.0, 0.0), (1.0, 10.0), (4.0, 20.0), (9.0, 30.0), (80.0, 80.0)]
+    reports = reports_along(
+        "V", pts, start_m=170.0, speed_mps=4.0, t=np.arange(0.0, 20.0, 1.0), frame=FRAME
+    )
+    for cut in range(3, len(reports) - 1):
+        original = Positioner(net)
+        last = drive(original, reports[: cut + 1])[-1]
+        state = json.loads(json.dumps(original.state("V")))
+        assert state["reported"] == [last.edge_id, last.direction]
+        copy = Positioner(net)
+        copy.restore("V", state)
+        assert copy.state("V") == original.state("V")
+        for r in reports[cut + 1 : cut + 4]:
+            assert copy.update(r) == original.update(r)

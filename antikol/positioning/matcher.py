@@ -765,6 +765,7 @@ class Positioner:
             "lost": self._f.lost[row],
             "fixes": self.fixes.state(vehicle_id),
             "last_report": None if last is None else report_dict(last),
+            "reported": self._reported.get(vehicle_id),
         }
 
     def restore(self, vehicle_id: str, data: dict[str, Any]) -> None:
@@ -793,4 +794,7 @@ class Positioner:
         self.fixes.restore(vehicle_id, data.get("fixes"))
         lr = data["last_report"]
         self._f.last[row] = None if lr is None else VehicleReport(**lr)
+        if data.get("reported") is not None:  # where the switch hold last reported it
+            edge, direction = data["reported"]
+            self._reported[vehicle_id] = (int(edge), int(direction))
         self._f.place[row] = self._place_probabilities(np.array([row]))[0] if m else 0.0
