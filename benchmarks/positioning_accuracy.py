@@ -12,7 +12,8 @@ cycle at a time, as in the analyser (:func:`antikol.evaluation.positioning_accur
 
 Printed: right track and direction on double track, right branch 40–60 m past a facing
 switch, the share of ``confident`` estimates that are on the wrong track, moving fixes on a
-track running the tram's way, 10-s windows that no permitted route connects, and the
+track running the tram's way, 10-s windows that no permitted route connects, the
+along-track RMS error of the estimates (and of the raw fixes projected on the track), and the
 reliability table (estimates binned by their ``probability`` against the share of them on
 the right track). ``--figure`` draws the reliability diagram (needs matplotlib).
 """
@@ -53,9 +54,10 @@ def main() -> None:
     results: dict[str, list[PositioningScore]] = {}
     print(
         "| GPS | seed | fixes | right track, double track | right branch past a switch "
-        "| confident and wrong | moving, right way | disconnected 10-s windows |"
+        "| confident and wrong | moving, right way | disconnected 10-s windows "
+        "| along-track RMS error (raw fix) |"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, gps in _models().items():
         for seed in args.seeds:
             specs = fleet(net, args.trams, seed)
@@ -68,7 +70,8 @@ def main() -> None:
                 f"| {100 * score.branch_accuracy:.2f} % "
                 f"| {100 * score.confident_wrong_share:.2f} % of {score.confident_fixes:,} "
                 f"| {100 * score.right_way_share:.2f} % "
-                f"| {100 * score.disconnected_share:.1f} % of {score.windows:,} |"
+                f"| {100 * score.disconnected_share:.1f} % of {score.windows:,} "
+                f"| {score.along_rmse_m:.2f} m ({score.raw_along_rmse_m:.2f} m) |"
             )
     print("\nReliability (all seeds pooled): estimates by probability, share on the right track")
     print("\n| probability | " + " | ".join(f"{n}: fixes | {n}: right" for n in results) + " |")

@@ -61,11 +61,18 @@ def track_positions(net: TrackMap, placements: Sequence[Placement]) -> list[Trac
     """
     if not placements:
         return []
-    edges = [p.edge_id for p in placements]
-    offsets = [p.offset_m for p in placements]
-    x, y = net.points_at(edges, offsets)
-    lon, lat = net.to_lonlat(x, y)
-    heading = net.headings_at(edges, offsets, [p.direction for p in placements])
+    if len(placements) == 1:  # one vehicle (on board): scalar calls cost less than arrays
+        p = placements[0]
+        lo, la = net.to_lonlat(*net.point_at(p.edge_id, p.offset_m))
+        lons, lats = [lo], [la]
+        headings = [net.heading_at(p.edge_id, p.offset_m, p.direction)]
+    else:
+        edges = [p.edge_id for p in placements]
+        offsets = [p.offset_m for p in placements]
+        x, y = net.points_at(edges, offsets)
+        lon, lat = net.to_lonlat(x, y)
+        lons, lats = lon.tolist(), lat.tolist()
+        headings = net.headings_at(edges, offsets, [p.direction for p in placements]).tolist()
     return [
         TrackPosition(
             vehicle_id=p.vehicle_id,
@@ -84,9 +91,7 @@ def track_positions(net: TrackMap, placements: Sequence[Placement]) -> list[Trac
             hypotheses=p.hypotheses,
             dead_reckoned_s=p.dead_reckoned_s,
         )
-        for p, lo, la, h in zip(
-            placements, lon.tolist(), lat.tolist(), heading.tolist(), strict=True
-        )
+        for p, lo, la, h in zip(placements, lons, lats, headings, strict=True)
     ]
 
 
