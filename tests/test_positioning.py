@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 
@@ -261,3 +262,27 @@ def test_a_restored_state_goes_on_as_the_original_past_a_switch(tmp_path):
         assert copy.state("V") == original.state("V")
         for r in reports[cut + 1 : cut + 4]:
             assert copy.update(r) == original.update(r)
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5, 6, 7])
+def test_asking_a_position_changes_no_later_position(tmp_path, seed):
+    # the switch hold remembers where the vehicle was placed at its reports, never where it
+    # was asked for: the same question asked twice gets the same answer, and a positioner
+    # asked ahead of time goes on as one never asked
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    rng = np.random.default_rng(seed)
+    reports = reports_along(
+        "V", [(1.0, -200.0), (1.0, 200.0)], start_m=160.0, speed_mps=3.0,
+        t=np.arange(0.0, 40.0, 1.0), frame=FRAME,
+    )  # fmt: skip
+    noisy = []
+    for r in reports:
+        x, y = FRAME.to_local(r.lon, r.lat)
+        lon, lat = FRAME.to_lonlat(float(x) + rng.normal(0, 2.0), float(y) + rng.normal(0, 2.0))
+        noisy.append(dataclasses.replace(r, lon=float(lon), lat=float(lat)))
+    asked, quiet = Positioner(net), Positioner(net)
+    for r in noisy:
+        first = asked.update(r)
+        asked.position("V", r.t + 15.0)  # somebody asks 15 s ahead
+        assert asked.position("V", r.t) == first  # the same question again
+        assert quiet.update(r) == first

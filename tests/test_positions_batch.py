@@ -56,3 +56,15 @@ def test_an_unmatched_vehicle_stands_where_its_fix_is(city):
     (p,) = pos.positions(["far"])
     assert p is not None and p.status == "unmatched"
     assert (p.lon, p.lat, p.edge_id) == (far.lon, far.lat, None)
+
+
+@pytest.mark.parametrize("t", [float("nan"), float("inf"), "soon"])
+def test_a_time_that_is_not_a_number_is_refused_by_name(city, t):
+    from antikol.errors import InvalidArgumentError
+
+    net, reports = city
+    pos = _fed(net, reports, 20.0)
+    ids = pos.vehicles()
+    for asked in (ids[:1], ids):  # one vehicle or many: the same answer
+        with pytest.raises(InvalidArgumentError, match="t"):
+            pos.positions(asked, t)

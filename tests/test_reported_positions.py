@@ -237,3 +237,47 @@ def test_every_report_is_matched_with_no_refresh_interval(net):
     assert an.positioner is not None
     warm = an.positioner.position("B")
     assert warm is not None and warm.t == T[-1]
+
+
+def test_a_batch_the_matcher_refuses_is_retried_without_losing_the_refresh(net):
+    # the analyser retries a failed batch report by report: the refresh schedule and the
+    # counts must be those of one pass
+    an = Analyser(track_map=net)
+    b = _along(net, "B", 500.0, 10.0)
+    c = _along(net, "C", 1500.0, 10.0)
+    inner = an.positioner
+    assert inner is not None and an.reported is not None
+    batch = inner.update_many
+
+    def flaky(reports, *, outputs=True):
+        if len(reports) > 1 and any(r.vehicle_id == "C" and r.t == 5.0 for r in reports):
+            raise ValueError("one bad report in the batch")
+        return batch(reports, outputs=outputs)
+
+    inner.update_many = flaky  # type: ignore[method-assign]
+    for rb, rc in zip(b, c, strict=True):
+        an.update_many([rb, rc])
+        an.position("B")
+    warm = inner.position("B")
+    assert warm is not None and warm.t == 5.0  # matched at t = 0 and 5, as without the error
+    assert an.reported.used == 2 * len(T)
+    assert an.reported.unmatched == 2 * (len(T) - 2)
+
+
+def test_with_no_refresh_interval_a_late_report_still_goes_to_the_matcher(net):
+    config = AnalyserConfig(reported_positions=ReportedSettings(matcher_refresh_s=0.0))
+    an = Analyser(track_map=net, config=config)
+    assert an.reported is not None
+    seen: list[float] = []
+    inner = an.reported.inner
+    batch = inner.update_many
+
+    def spy(reports, *, outputs=True):
+        seen.extend(r.t for r in reports)
+        return batch(reports, outputs=outputs)
+
+    an.reported.inner.update_many = spy  # type: ignore[method-assign]
+    reports = _along(net, "B", 500.0, 10.0)
+    an.reported.update_many([reports[3]], outputs=False)
+    an.reported.update_many([reports[2]], outputs=False)  # older than the last one matched
+    assert seen == [3.0, 2.0]

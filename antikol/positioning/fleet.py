@@ -122,6 +122,50 @@ class FleetState:
         self.last[row] = None
         self.lost[row] = None
 
+    def row_state(self, row: int) -> dict[str, Any]:
+        """One vehicle's row as a JSON-ready dict (see ``Positioner.state``)."""
+        slots = np.flatnonzero(self.hs[row] >= 0)
+        kf, last = self.kf, self.last[row]
+        return {
+            "states": [int(self.hs[row, k]) for k in slots],
+            "slots": {
+                name: [float(getattr(self, name)[row, k]) for k in slots] for name in SLOT_FIELDS
+            },
+            "vehicle": {name: json_float(getattr(self, name)[row]) for name in VEHICLE_FIELDS},
+            "filter": [json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
+            "rejected_in_row": int(self.rejected[row]),
+            "confident_in_row": int(self.confident_run[row]),
+            "gated_in_row": int(self.gated[row]),
+            "unmatched": bool(self.unmatched[row]),
+            "lost": self.lost[row],
+            "last_report": None if last is None else report_dict(last),
+        }
+
+    def restore_row(self, row: int, data: dict[str, Any]) -> int:
+        """Fill an empty row from :meth:`row_state`'s dict; returns the hypotheses kept."""
+        states = [int(s) for s in data["states"]][: self.k]
+        m = len(states)
+        self.hs[row, :m] = states
+        for name, values in data["slots"].items():
+            if name in SLOT_FIELDS:
+                getattr(self, name)[row, :m] = values[:m]
+        for name, value in data["vehicle"].items():
+            if name in VEHICLE_FIELDS:
+                getattr(self, name)[row] = math.nan if value is None else value
+        kf = self.kf
+        for arr, value in zip(
+            (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv), data["filter"], strict=True
+        ):
+            arr[row] = math.nan if value is None else value
+        self.rejected[row] = int(data["rejected_in_row"])
+        self.confident_run[row] = int(data["confident_in_row"])
+        self.gated[row] = int(data.get("gated_in_row", 0))
+        self.unmatched[row] = bool(data["unmatched"])
+        self.lost[row] = data["lost"]
+        lr = data["last_report"]
+        self.last[row] = None if lr is None else VehicleReport(**lr)
+        return m
+
 
 def json_float(value: float) -> float | None:
     """A float for JSON: NaN becomes None."""

@@ -57,15 +57,12 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import (
-    SLOT_FIELDS,
-    VEHICLE_FIELDS,
     FleetState,
-    json_float,
-    report_dict,
 )
 from antikol.positioning.kalman import track_estimate
 from antikol.positioning.outputs import (
     Placement,
+    asked_time,
     hypotheses_of,
     track_positions,
     unmatched_position,
@@ -131,6 +128,7 @@ class Positioner:
         # the (edge, direction) each vehicle was last reported on: the switches behind it
         # are released (branching.hold_at_switch)
         self._reported: dict[str, tuple[int, int]] = {}
+        self._reported_before: dict[str, tuple[int, int]] = {}
         self._loops = loop_edges(track_map, self.config.search_radius_m)
 
     # -- fleet storage -------------------------------------------------------------------
@@ -194,9 +192,30 @@ class Positioner:
             passes[k].append(r)
         for batch in passes:
             self._update_pass(batch)
+            self._remember(batch)
         if not outputs:
             return []
         return [p for p in self.positions([r.vehicle_id for r in reports]) if p is not None]
+
+    def _remember(self, reports: list[VehicleReport]) -> None:
+        """Place the vehicles at their new reports' times and remember where (the switch
+        hold's memory): a function of the reports taken alone, never of which positions
+        were asked for, and when (a rejected report changes nothing)."""
+        vehicle_ids = [
+            r.vehicle_id
+            for r in reports
+            if (row := self._row.get(r.vehicle_id)) is not None and self._f.last[row] is r
+        ]
+        for vid in vehicle_ids:
+            self._cache.pop(vid, None)
+            before = self._reported.get(vid)
+            if before is None:
+                self._reported_before.pop(vid, None)
+            else:
+                self._reported_before[vid] = before
+        for pos in self.positions(vehicle_ids):
+            if pos is not None and pos.edge_id is not None and pos.direction is not None:
+                self._reported[pos.vehicle_id] = (pos.edge_id, pos.direction)
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
         """The vehicle's position at time ``t`` (dead-reckoned when later than its report).
@@ -219,7 +238,9 @@ class Positioner:
         self, vehicle_ids: Sequence[str], t: float | None = None
     ) -> list[TrackPosition | None]:
         """:meth:`position` of many vehicles at once (their geometry in array calls, see
-        :mod:`antikol.positioning.outputs`); ``t`` None: each at its last report."""
+        :mod:`antikol.positioning.outputs`); ``t`` None: each at its last report, else a
+        finite time, s (:class:`~antikol.errors.InvalidArgumentError` otherwise)."""
+        t = asked_time(t)
         out: list[TrackPosition | None] = [None] * len(vehicle_ids)
         placed: dict[str, tuple[Placement, list[int]]] = {}
         asked: list[tuple[int, str, int, float]] = []
@@ -245,7 +266,13 @@ class Positioner:
                 if vid in placed:
                     placed[vid][1].append(k)
                     continue
-                place = self._place(vid, row, when, est[0][i], est[1][i], est[2][i], hyps[i])
+                last_t = self._f.last[row].t  # type: ignore[union-attr]  # checked above
+                # the hold's memory: where the vehicle was placed at its report before this
+                # one (at this report's time) or at this one (later: dead reckoning)
+                basis = (self._reported_before if when == last_t else self._reported).get(vid)
+                place = self._place(
+                    vid, row, when, (est[0][i], est[1][i], est[2][i]), hyps[i], basis
+                )
                 placed[vid] = (place, [k])
         todo = list(placed.values())
         for (_, where), pos in zip(
@@ -261,6 +288,7 @@ class Positioner:
         row = self._row.pop(vehicle_id, None)
         self._cache.pop(vehicle_id, None)
         self._reported.pop(vehicle_id, None)
+        self._reported_before.pop(vehicle_id, None)
         self.fixes.forget(vehicle_id)
         if row is not None:
             self._f.clear(row)
@@ -599,13 +627,14 @@ class Positioner:
         vid: str,
         row: int,
         t: float,
-        s: Any,
-        v: Any,
-        s_std: Any,
+        estimate: tuple[Any, Any, Any],
         hyps: tuple[Hypothesis, ...],
+        basis: tuple[int, int] | None,
     ) -> Placement:
-        """Where a matched vehicle is at ``t`` from its along-track estimate (``s``, ``v``,
-        ``s_std``: m, m/s, m) and hypotheses."""
+        """Where a matched vehicle is at ``t`` from its along-track estimate (position,
+        speed, sigma: m, m/s, m), its hypotheses and where it was placed before
+        (``basis``: edge, direction)."""
+        s, v, s_std = estimate
         c = self.config
         last = self._f.last[row]
         if last is None:  # pragma: no cover - positions() asks only for reported vehicles
@@ -624,15 +653,13 @@ class Positioner:
         edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
         place_p = float(self._f.place[row]) * moved.branch_share
         if self._arrivals.switches((edge, direction)):  # a switch behind: held there?
-            before = self._reported.get(vid)
-            released = self._arrivals.switches_behind(before) if before else frozenset()
+            released = self._arrivals.switches_behind(basis) if basis else frozenset()
             held = hold_at_switch(
                 self._arrivals, hyps, edge, off, direction, released=released, route=last.route
             )
             if held is not None:
                 edge, off, direction, past_m, _ = held
                 s_std, place_p = s_std + past_m, float(self._f.place[row])
-        self._reported[vid] = (edge, direction)
         age = t - float(self._f.t_fix[row])
         odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
         if math.isfinite(odometer_run):
@@ -742,59 +769,25 @@ class Positioner:
         row = self._row.get(vehicle_id)
         if row is None:
             return None
-        slots = np.flatnonzero(self._f.hs[row] >= 0)
-        per_slot = {
-            name: [float(getattr(self._f, name)[row, k]) for k in slots]
-            for name in ("ho", "hp", "hg", "hw", "bx", "by", "pxx", "pxy", "pyy")
-        }
-        kf = self._f.kf
-        last = self._f.last[row]
         return {
             "hypotheses": [asdict(h) for h in self._hypotheses(row)],
-            "states": [int(self._f.hs[row, k]) for k in slots],
-            "slots": per_slot,
-            "vehicle": {
-                name: json_float(getattr(self._f, name)[row])
-                for name in ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
-            },
-            "filter": [json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
-            "rejected_in_row": int(self._f.rejected[row]),
-            "confident_in_row": int(self._f.confident_run[row]),
-            "gated_in_row": int(self._f.gated[row]),
-            "unmatched": bool(self._f.unmatched[row]),
-            "lost": self._f.lost[row],
+            **self._f.row_state(row),
             "fixes": self.fixes.state(vehicle_id),
-            "last_report": None if last is None else report_dict(last),
             "reported": self._reported.get(vehicle_id),
+            "reported_before": self._reported_before.get(vehicle_id),
         }
 
     def restore(self, vehicle_id: str, data: dict[str, Any]) -> None:
         """Restore a state produced by :meth:`state`."""
         self.forget(vehicle_id)
         row = self._row_of(vehicle_id)
-        states = [int(s) for s in data["states"]][: self._k]
-        m = len(states)
-        self._f.hs[row, :m] = states
-        for name, values in data["slots"].items():
-            if name in SLOT_FIELDS:
-                getattr(self._f, name)[row, :m] = values[:m]
-        for name, value in data["vehicle"].items():
-            if name in VEHICLE_FIELDS:
-                getattr(self._f, name)[row] = math.nan if value is None else value
-        kf = self._f.kf
-        for arr, value in zip(
-            (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv), data["filter"], strict=True
-        ):
-            arr[row] = math.nan if value is None else value
-        self._f.rejected[row] = int(data["rejected_in_row"])
-        self._f.confident_run[row] = int(data["confident_in_row"])
-        self._f.gated[row] = int(data.get("gated_in_row", 0))
-        self._f.unmatched[row] = bool(data["unmatched"])
-        self._f.lost[row] = data["lost"]
+        m = self._f.restore_row(row, data)
         self.fixes.restore(vehicle_id, data.get("fixes"))
-        lr = data["last_report"]
-        self._f.last[row] = None if lr is None else VehicleReport(**lr)
-        if data.get("reported") is not None:  # where the switch hold last reported it
-            edge, direction = data["reported"]
-            self._reported[vehicle_id] = (int(edge), int(direction))
+        for key, memory in (
+            ("reported", self._reported),
+            ("reported_before", self._reported_before),
+        ):
+            if data.get(key) is not None:  # where the switch hold placed it
+                edge, direction = data[key]
+                memory[vehicle_id] = (int(edge), int(direction))
         self._f.place[row] = self._place_probabilities(np.array([row]))[0] if m else 0.0

@@ -19,12 +19,20 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from antikol.errors import InvalidArgumentError
 from antikol.kinds import PositionStatus
+from antikol.numeric import finite_float, why_not_finite
 from antikol.positioning.records import Hypothesis, TrackPosition
 from antikol.report import VehicleReport
 from trackmap import TrackMap
 
-__all__ = ["Placement", "hypotheses_of", "track_positions", "unmatched_position"]
+__all__ = [
+    "Placement",
+    "asked_time",
+    "hypotheses_of",
+    "track_positions",
+    "unmatched_position",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -163,3 +171,19 @@ def unmatched_position(report: VehicleReport, t: float) -> TrackPosition:
         probability=0.0,
         sigma_m=None,
     )
+
+
+def asked_time(t: object) -> float | None:
+    """A time a position is asked for, s (None: none given), checked.
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``t`` is not a finite number.
+    """
+    if t is None:
+        return None
+    value = finite_float(t)
+    if value is None:
+        raise InvalidArgumentError("t", t, why_not_finite(t) or "must be a finite time, s")
+    return value

@@ -128,8 +128,9 @@ class PositionSource(Protocol):
 
     Fleet-scale replay (:mod:`antikol.evaluation.fleet`) positions every vehicle alone
     first and then hands the stored positions to the pairwise analysis through this hook.
-    ``positions`` (many vehicles at once) is optional: the analyser asks ``position`` of
-    each vehicle when a source has none.
+    A source may also have ``positions(vehicle_ids, t)`` (many vehicles at once, as
+    :meth:`Positioner.positions <antikol.positioning.matcher.Positioner.positions>`);
+    :func:`positions_of` asks ``position`` of each vehicle when it has none.
     """
 
     def update_many(
@@ -137,10 +138,6 @@ class PositionSource(Protocol):
     ) -> list[TrackPosition]: ...
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None: ...
-
-    def positions(
-        self, vehicle_ids: Sequence[str], t: float | None = None
-    ) -> list[TrackPosition | None]: ...
 
     def forget(self, vehicle_id: str) -> None: ...
 
@@ -151,6 +148,6 @@ def positions_of(
     """The positions of many vehicles from a source: its ``positions`` when it has one,
     else its ``position`` of each (a caller's own source may have only that)."""
     many = getattr(source, "positions", None)
-    if many is not None:
+    if callable(many):
         return list(many(vehicle_ids, t))
     return [source.position(v, t) for v in vehicle_ids]

@@ -36,6 +36,7 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 from antikol.positioning.deadreckoning import Advanced, advance
+from antikol.positioning.outputs import asked_time
 from antikol.positioning.records import Hypothesis, PositionSource, TrackPosition, positions_of
 from antikol.report import ReportedTrackPosition, VehicleReport
 from trackmap import TrackMap
@@ -136,24 +137,36 @@ class ReportedFirst:
         not matched for ``matcher_refresh_s``, go to ``inner``."""
         refresh_s = self.settings.matcher_refresh_s
         to_match = []
+        usable: list[bool] = []
+        refused: Counter[str] = Counter()
+        skipped = 0
+        matched_at = dict(self._matched_at)
         for r in reports:
             vid = r.vehicle_id
             reason = "absent" if vid in self.exclude else self.check(r)
+            usable.append(reason is None)
             if reason is None:
-                self._latest[vid] = r
-                self.used += 1
-                last = self._matched_at.get(vid)
-                if last is not None and r.t - last < refresh_s:
-                    self.unmatched += 1
+                last = matched_at.get(vid)
+                if refresh_s > 0 and last is not None and r.t - last < refresh_s:
+                    skipped += 1
                     continue
-            else:
-                if reason != "absent":
-                    self.rejected[reason] += 1
-                self._latest.pop(vid, None)
+            elif reason != "absent":
+                refused[reason] += 1
             to_match.append(r)
-            self._matched_at[vid] = r.t
+            matched_at[vid] = r.t
         if to_match:
             self.inner.update_many(to_match, outputs=False)
+        # kept and counted once the matcher has taken the batch: a caller that retries a
+        # failed batch report by report must find nothing matched or counted twice
+        self._matched_at = matched_at
+        for r, ok in zip(reports, usable, strict=True):
+            if ok:
+                self._latest[r.vehicle_id] = r
+            else:
+                self._latest.pop(r.vehicle_id, None)
+        self.used += sum(usable)
+        self.unmatched += skipped
+        self.rejected.update(refused)
         if not outputs:
             return []
         out = []
@@ -173,7 +186,9 @@ class ReportedFirst:
         self, vehicle_ids: Sequence[str], t: float | None = None
     ) -> list[TrackPosition | None]:
         """:meth:`position` of many vehicles, those without a used reported position
-        asked of ``inner`` together."""
+        asked of ``inner`` together (``t``: s; a time that is not a finite number raises
+        :class:`~antikol.errors.InvalidArgumentError`)."""
+        t = asked_time(t)
         out: list[TrackPosition | None] = [None] * len(vehicle_ids)
         matched: list[int] = []
         for k, vid in enumerate(vehicle_ids):
