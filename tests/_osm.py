@@ -93,6 +93,17 @@ class OsmBuilder:
         return path
 
 
+#: A straight one-way line, south to north, local metres (the positioning tests' track).
+STRAIGHT_LINE = [(0.0, -500.0), (0.0, 1500.0)]
+
+
+def straight_fixture() -> OsmBuilder:
+    """One straight one-way track along :data:`STRAIGHT_LINE`."""
+    b = OsmBuilder()
+    b.line(STRAIGHT_LINE, oneway="yes")
+    return b
+
+
 def switch_fixture() -> OsmBuilder:
     """Trunk from the south, straight branch north, diverging branch curving right."""
     b = OsmBuilder()

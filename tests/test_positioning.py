@@ -12,17 +12,15 @@ import pytest
 import trackmap
 from antikol import VehicleReport
 from antikol.positioning.matcher import DiscreteFix, FixPoint, Positioner, PositioningConfig
-from tests._osm import FRAME, OsmBuilder, switch_fixture
+from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture, switch_fixture
 from tests._paths import reports_along
 
-LINE = [(0.0, -500.0), (0.0, 1500.0)]
+LINE = STRAIGHT_LINE
 
 
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory):
-    b = OsmBuilder()
-    b.line(LINE, oneway="yes")
-    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
+    return trackmap.build(straight_fixture().write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
 
 
 def drive(pos, reports):

@@ -21,17 +21,15 @@ from antikol import VehicleReport
 from antikol.positioning.branching import Arrivals, hold_at_switch
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import Hypothesis
-from tests._osm import FRAME, OsmBuilder, switch_fixture
+from tests._osm import FRAME, STRAIGHT_LINE, OsmBuilder, straight_fixture, switch_fixture
 from tests._paths import reports_along
 
-LINE = [(0.0, -500.0), (0.0, 1500.0)]
+LINE = STRAIGHT_LINE
 
 
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory):
-    b = OsmBuilder()
-    b.line(LINE, oneway="yes")
-    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
+    return trackmap.build(straight_fixture().write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
 
 
 def _with_odometer(reports: list[VehicleReport], speed_mps: float) -> list[VehicleReport]:
@@ -48,15 +46,21 @@ def _moved(r: VehicleReport, dx: float, dy: float) -> VehicleReport:
     return dataclasses.replace(r, lon=float(lon), lat=float(lat))
 
 
+def _on_the_line(speed: float, seconds: int) -> list[VehicleReport]:
+    """A tram on the straight line from 100 m at ``speed`` (m/s), one report a second
+    with its odometer."""
+    t = np.arange(0.0, float(seconds), 1.0)
+    return _with_odometer(
+        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
+    )
+
+
 def test_a_fix_far_off_along_the_track_does_not_move_the_reported_position(straight):
     # 25 m ahead along the track in one second, with the odometer saying 10 m: every
     # candidate shares the error; the position used to jump there and back (a relocation
     # restarted the along-track filter at the outlier)
     speed = 10.0
-    t = np.arange(0.0, 16.0, 1.0)
-    reports = _with_odometer(
-        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
-    )
+    reports = _on_the_line(speed, 16)
     reports[10] = _moved(reports[10], 0.0, 25.0)
     pos = Positioner(straight)
     out = [pos.update(r) for r in reports]
@@ -72,10 +76,7 @@ def test_a_fix_no_place_explains_is_dead_reckoned_over(straight):
     # the search radius and what physics allows, but every candidate explains it badly;
     # the hypotheses used to move to it
     speed = 10.0
-    t = np.arange(0.0, 14.0, 1.0)
-    reports = _with_odometer(
-        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
-    )
+    reports = _on_the_line(speed, 14)
     reports[10] = _moved(reports[10], 20.0, 20.0)
     pos = Positioner(straight)
     for r in reports[:11]:
@@ -90,10 +91,7 @@ def test_a_fix_no_place_explains_is_dead_reckoned_over(straight):
 def test_a_lasting_along_track_offset_still_restarts_the_filter(straight):
     # the second gated innovation in a row is no outlier: the filter follows the fixes
     speed = 10.0
-    t = np.arange(0.0, 16.0, 1.0)
-    reports = _with_odometer(
-        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
-    )
+    reports = _on_the_line(speed, 16)
     reports[10:] = [_moved(r, 0.0, 25.0) for r in reports[10:]]
     pos = Positioner(straight)
     out = [pos.update(r) for r in reports]
@@ -105,10 +103,7 @@ def test_a_fix_off_every_track_keeps_the_hypotheses(straight):
     # 35 m beside the only track (beyond the 25 m search radius) but within what the
     # vehicle could have run: the vehicle used to become unmatched and start afresh
     speed = 12.0
-    t = np.arange(0.0, 12.0, 1.0)
-    reports = _with_odometer(
-        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
-    )
+    reports = _on_the_line(speed, 12)
     reports[6] = _moved(reports[6], 35.0, 0.0)
     pos = Positioner(straight)
     out = [pos.update(r) for r in reports]
