@@ -243,3 +243,27 @@ def test_carried_past_a_switch_the_lineage_takes_the_branch_holding_most(switch_
     carry(fleet, ReachTable.for_map(net, reach_m=400.0), net, 0, 10.0, None)
     # the trunk's 0.40 splits evenly: 0.57 on the favoured branch, 0.43 on the other
     assert int(fleet.hs[0, 0]) >> 1 == ahead
+
+
+def test_an_outlier_beyond_a_node_does_not_move_the_position_to_the_node(tmp_path):
+    # the fix 25 m ahead lands past a node (a track joins at y = 222 m); the filter keeps
+    # its prediction, and the position, moved back from the outlier's place, used to stop
+    # at the node: 22 m ahead for one report
+    b = OsmBuilder()
+    joint = b.node(0.0, 222.0)
+    b.line([(0.0, -500.0), joint], oneway="yes")
+    b.line([joint, (0.0, 1500.0)], oneway="yes")
+    b.line([(-60.0, 150.0), (-20.0, 190.0), joint], oneway="yes")
+    net = trackmap.build(b.write_xml(tmp_path / "joint.osm"))
+    speed = 10.0
+    t = np.arange(0.0, 16.0, 1.0)
+    reports = _with_odometer(
+        reports_along("V", LINE, start_m=600.0, speed_mps=speed, t=t, frame=FRAME), speed
+    )
+    reports[10] = _moved(reports[10], 0.0, 25.0)  # truly at y = 200 m, the fix at 225 m
+    pos = Positioner(net)
+    out = [pos.update(r) for r in reports]
+    assert pos.stats["along_outlier"] == 1
+    for k, p in enumerate(out):
+        _, y = FRAME.to_local(p.lon, p.lat)
+        assert float(y) == pytest.approx(100.0 + speed * k, abs=3.0), k

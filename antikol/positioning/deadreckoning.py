@@ -160,6 +160,7 @@ def advance(
     *,
     wrong: bool,
     edge_mass: Mapping[tuple[int, int], float] | None = None,
+    came_from: tuple[int, int] | None = None,
 ) -> Advanced:
     """Move a track position by a signed distance along its most probable path.
 
@@ -169,7 +170,8 @@ def advance(
     edge, offset, direction
         The start (edge id, m from the edge's start, +1/-1).
     distance_m : float
-        How far to move, m; a move back stops at the start of the edge.
+        How far to move, m; a move back stops at the start of the edge unless it runs
+        through ``came_from``.
     report : VehicleReport or None
         Its planned route, when it has one, chooses the branch.
     wrong : bool
@@ -178,6 +180,10 @@ def advance(
         Probability held by other hypotheses in each (edge, direction) state: without a
         route, the path holding the most of it is taken at a switch (the straightest on a
         tie).
+    came_from : (int, int), optional
+        The (edge, direction) state the vehicle was placed on before: a move back past
+        the start of the edge follows the track back through it (the way the vehicle
+        came), and stops at the start of the edge when no track back reaches it.
 
     Returns
     -------
@@ -206,9 +212,31 @@ def advance(
         return Advanced(
             last.edge_id, last.exit_offset_m, last.direction, _share(paths, taken, edge_mass)
         )
-    # behind the start of the edge: the filter lags the matched lineage by a few metres;
+    # behind the start of the edge (the filter lags the matched lineage, or kept its
+    # prediction over an outlier fix): back the way the vehicle came, when it is known;
     # guessing a branch behind would be worse than stopping at the node
+    if came_from is not None and came_from != (edge, direction):
+        back = _back_through(net, edge, offset, direction, -distance_m, came_from)
+        if back is not None:
+            return back
     return Advanced(edge, min(max(moved, 0.0), length), direction)
+
+
+def _back_through(
+    net: TrackMap, edge: int, offset: float, direction: int, run_m: float, via: tuple[int, int]
+) -> Advanced | None:
+    """``run_m`` back along the track from a position, on the way that runs through the
+    state ``via`` (None when no way back within ``run_m`` does)."""
+    reverse = net.paths_ahead(
+        edge, offset, -direction, run_m, respect_direction=False, max_paths=MAX_PATHS_SEARCH
+    )
+    # running back through ``via`` is running its edge against its direction
+    target = (via[0], -via[1])
+    for path in reverse:
+        if any((st.edge_id, int(st.direction)) == target for st in path.steps[1:]):
+            last = path.steps[-1]
+            return Advanced(last.edge_id, last.exit_offset_m, -int(last.direction))
+    return None
 
 
 def _states(path: Path) -> set[tuple[int, int]]:

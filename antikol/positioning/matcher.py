@@ -649,6 +649,9 @@ class Positioner:
             last,
             wrong=first.wrong_way,
             edge_mass=edge_mass(hyps),
+            # the last fix a forgiven outlier: the lineage sits at the outlier's place and
+            # the position goes back the way the vehicle came (else it stops at a node)
+            came_from=basis if self._f.gated[row] else None,
         )
         edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
         place_p = float(self._f.place[row]) * moved.branch_share
