@@ -46,12 +46,12 @@ def _moved(r: VehicleReport, dx: float, dy: float) -> VehicleReport:
     return dataclasses.replace(r, lon=float(lon), lat=float(lat))
 
 
-def _on_the_line(speed: float, seconds: int) -> list[VehicleReport]:
-    """A tram on the straight line from 100 m at ``speed`` (m/s), one report a second
-    with its odometer."""
+def _on_the_line(speed: float, seconds: int, start_m: float = 100.0) -> list[VehicleReport]:
+    """A tram on the straight line from ``start_m`` at ``speed`` (m/s), one report a
+    second with its odometer."""
     t = np.arange(0.0, float(seconds), 1.0)
     return _with_odometer(
-        reports_along("V", LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME), speed
+        reports_along("V", LINE, start_m=start_m, speed_mps=speed, t=t, frame=FRAME), speed
     )
 
 
@@ -256,10 +256,7 @@ def test_an_outlier_beyond_a_node_does_not_move_the_position_to_the_node(tmp_pat
     b.line([(-60.0, 150.0), (-20.0, 190.0), joint], oneway="yes")
     net = trackmap.build(b.write_xml(tmp_path / "joint.osm"))
     speed = 10.0
-    t = np.arange(0.0, 16.0, 1.0)
-    reports = _with_odometer(
-        reports_along("V", LINE, start_m=600.0, speed_mps=speed, t=t, frame=FRAME), speed
-    )
+    reports = _on_the_line(speed, 16, start_m=600.0)
     reports[10] = _moved(reports[10], 0.0, 25.0)  # truly at y = 200 m, the fix at 225 m
     pos = Positioner(net)
     out = [pos.update(r) for r in reports]
