@@ -21,13 +21,14 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import logging
 import math
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol, TypeVar
 
 import networkx as nx
 import numpy as np
@@ -57,6 +58,8 @@ __all__ = [
     "route_distance",
     "traversal_graph",
 ]
+
+_R = TypeVar("_R")
 
 logger = logging.getLogger(__name__)
 
@@ -195,6 +198,14 @@ class RoutingIndex:
         Unnoded crossings on each edge: sorted (offset_m, conflict_id) pairs.
     conflicts_by_node : dict
         Conflict ids at each junction node.
+    edge_lengths_m : tuple of float
+        ``lengths_m`` as Python floats (the searches' arithmetic on them is several times
+        cheaper than on numpy scalars, with the same results).
+    moves, moves_any : dict
+        The successors of each state in ``traversal`` and ``traversal_any``, in the
+        graphs' order, as tuples (a dict look-up; asking networkx costs several times it).
+    node_conflicts : dict
+        (conflict id, kind) of the conflicts at each junction node.
     """
 
     traversal: nx.DiGraph
@@ -203,6 +214,10 @@ class RoutingIndex:
     choices: Mapping[Move, str]
     crossings_by_edge: Mapping[int, Sequence[tuple[float, int]]]
     conflicts_by_node: Mapping[int, Sequence[int]]
+    edge_lengths_m: tuple[float, ...]
+    moves: Mapping[TrackState, tuple[TrackState, ...]]
+    moves_any: Mapping[TrackState, tuple[TrackState, ...]]
+    node_conflicts: Mapping[int, tuple[tuple[int, ConflictKind], ...]]
 
     @classmethod
     def build(
@@ -226,6 +241,7 @@ class RoutingIndex:
         for lst in crossings.values():
             lst.sort()
         geometries = [e.geometry for e in edges]
+        kinds = {c.conflict_id: c.kind for c in conflicts}
         return cls(
             traversal=traversal,
             traversal_any=traversal_any,
@@ -233,6 +249,12 @@ class RoutingIndex:
             choices=facing_choices(traversal_any, geometries, lengths_m),
             crossings_by_edge=dict(crossings),
             conflicts_by_node=dict(at_node),
+            edge_lengths_m=tuple(lengths_m.tolist()),
+            moves={s: tuple(traversal.successors(s)) for s in traversal},
+            moves_any={s: tuple(traversal_any.successors(s)) for s in traversal_any},
+            node_conflicts={
+                node: tuple((cid, kinds[cid]) for cid in ids) for node, ids in at_node.items()
+            },
         )
 
     def graph(self, *, respect_direction: bool) -> nx.DiGraph:
@@ -320,14 +342,14 @@ def paths_ahead(
     if not horizon_m >= 0:
         raise ValueError(f"horizon_m must be >= 0, got {horizon_m}")
     index = net.routing_index
-    graph = index.traversal if respect_direction else index.traversal_any
     # locals: this loop is the hot path of the analyser
-    lengths = index.lengths_m
+    moves = index.moves if respect_direction else index.moves_any
+    lengths = index.edge_lengths_m
     choices = index.choices
-    conflicts_by_node = index.conflicts_by_node
+    node_conflicts = index.node_conflicts
+    crossings = index.crossings_by_edge
     edges = net.edges
     nodes = net.nodes
-    conflicts_of = net.conflicts
     offset = min(max(float(offset_m), 0.0), lengths[edge.edge_id])
     results: list[Path] = []
     # each stack item: (state, enter_offset, distance at entry, steps, nodes, conflicts, labels);
@@ -354,16 +376,18 @@ def paths_ahead(
         budget = horizon_m - start
         if remaining >= budget:
             exit_off = enter + budget if forward else enter - budget
-            steps = [*steps, PathStep(e, d, enter, exit_off, start, horizon_m)]
-            conflicts = conflicts + _crossings_on(index, e, enter, exit_off, start)
+            steps = [*steps, _step(e, d, enter, exit_off, start, horizon_m)]
+            if e in crossings:
+                conflicts = conflicts + _crossings_on(index, e, enter, exit_off, start)
             results.append(_make_path(steps, passed, conflicts, labels, PathEnd.HORIZON))
             continue
         exit_off = elen if forward else 0.0
         end_m = start + remaining
-        steps = [*steps, PathStep(e, d, enter, exit_off, start, end_m)]
-        conflicts = conflicts + _crossings_on(index, e, enter, exit_off, start)
+        steps = [*steps, _step(e, d, enter, exit_off, start, end_m)]
+        if e in crossings:
+            conflicts = conflicts + _crossings_on(index, e, enter, exit_off, start)
         node_id = edges[e].end_node if forward else edges[e].start_node
-        succ = list(graph.successors(state)) if state in graph else []
+        succ = moves.get(state, ())  # type: ignore[call-overload]  # a tuple equal to a state
         if not succ or len(results) + len(stack) >= max_paths:
             node = nodes.get(node_id)
             if succ:
@@ -375,23 +399,23 @@ def paths_ahead(
                 end = PathEnd.DEAD_END
             results.append(_make_path(steps, passed, conflicts, labels, end))
             continue
-        node = nodes[node_id]
+        cls = nodes[node_id].cls
+        here = node_conflicts.get(node_id, ())
+        branching = len(succ) > 1
         for nxt in reversed(succ):
-            choice = choices.get((state, nxt)) if len(succ) > 1 else None
-            npass = NodePass(node_id, node.cls, end_m, e, nxt[0], choice)
-            node_conf = [
-                ConflictPass(cid, conflicts_of[cid].kind, end_m, nxt[0])
-                for cid in conflicts_by_node.get(node_id, ())
-            ]
-            enter_next = 0.0 if nxt[1] is _FORWARD else lengths[nxt[0]]
+            choice = choices.get((state, nxt)) if branching else None
+            to_edge = nxt[0]
+            npass = _node_pass(node_id, cls, end_m, e, to_edge, choice)
             stack.append(
                 (
                     nxt,
-                    enter_next,
+                    0.0 if nxt[1] is _FORWARD else lengths[to_edge],
                     end_m,
                     steps,
                     [*passed, npass],
-                    conflicts + node_conf,
+                    conflicts + [_conflict_pass(c, k, end_m, to_edge) for c, k in here]
+                    if here
+                    else conflicts,
                     [*labels, choice] if choice else labels,
                 )
             )
@@ -410,7 +434,7 @@ def _crossings_on(
     for off, cid in hits:
         if lo - 1e-9 <= off <= hi + 1e-9:
             out.append(
-                ConflictPass(cid, ConflictKind.CROSSING, start_m + abs(off - enter), edge_id)
+                _conflict_pass(cid, ConflictKind.CROSSING, start_m + abs(off - enter), edge_id)
             )
     out.sort(key=lambda c: c.distance_m)
     return out
@@ -423,14 +447,42 @@ def _make_path(
     labels: list[str],
     end: PathEnd,
 ) -> Path:
-    return Path(
-        zone="/".join(labels) if labels else "main",
-        steps=tuple(steps),
-        length_m=steps[-1].end_m if steps else 0.0,
-        nodes=tuple(nodes),
-        conflicts=tuple(sorted(conflicts, key=lambda c: c.distance_m)),
-        end=end,
+    return _path(
+        "/".join(labels) if labels else "main",
+        tuple(steps),
+        steps[-1].end_m if steps else 0.0,
+        tuple(nodes),
+        tuple(sorted(conflicts, key=_distance_of) if len(conflicts) > 1 else conflicts),
+        end,
     )
+
+
+def _distance_of(c: ConflictPass) -> float:
+    return c.distance_m
+
+
+def _positional(cls: type[_R]) -> Callable[..., _R]:
+    """A constructor of a frozen slotted dataclass taking every field by position, that
+    sets the slots directly: the generated ``__init__`` of a frozen class goes through
+    ``object.__setattr__`` for each field, which made building the records of the paths
+    ahead a large part of the walks' cost. Equal objects to the class's own constructor
+    (a test checks); no defaults, no validation — only for records that have neither."""
+    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    setters = {f"_set_{k}": getattr(cls, name).__set__ for k, name in enumerate(names)}
+    args = ", ".join(f"v{k}" for k in range(len(names)))
+    body = "".join(f"    _set_{k}(obj, v{k})\n" for k in range(len(names)))
+    source = f"def make({args}):\n    obj = _new(_cls)\n{body}    return obj\n"
+    scope: dict[str, Any] = {"_new": object.__new__, "_cls": cls, **setters}
+    exec(source, scope)  # as dataclasses builds __init__: one plain call per field
+    make: Callable[..., _R] = scope["make"]
+    make.__qualname__ = f"_positional({cls.__name__})"
+    return make
+
+
+_step = _positional(PathStep)
+_node_pass = _positional(NodePass)
+_conflict_pass = _positional(ConflictPass)
+_path = _positional(Path)
 
 
 def path_geometry(net: RoutableMap, path: Path) -> shapely.LineString:

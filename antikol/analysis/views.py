@@ -31,7 +31,7 @@ from antikol.analysis.ends import VehicleEnds, vehicle_ends
 from antikol.analysis.profiles import BrakingProfile
 from antikol.positioning.records import Hypothesis, TrackPosition
 from antikol.report import VehicleReport
-from trackmap import NodePass, Path, TrackMap
+from trackmap import Path, TrackMap
 
 __all__ = [
     "ConflictApproach",
@@ -369,30 +369,6 @@ def _in_reach(
     return needed
 
 
-def _nodes_at(path: Path) -> list[NodePass | None]:
-    """For each conflict point of a path (in order), the first node within 1e-6 m of it.
-
-    Both are sorted by distance: one walk, the window a little wider than the test so that
-    no node the test would accept is skipped.
-    """
-    nodes = path.nodes
-    out: list[NodePass | None] = []
-    i = 0
-    for cp in path.conflicts:
-        d = cp.distance_m
-        while i < len(nodes) and nodes[i].distance_m < d - 2e-6:
-            i += 1
-        found = None
-        j = i
-        while j < len(nodes) and nodes[j].distance_m <= d + 2e-6:
-            if abs(nodes[j].distance_m - d) < 1e-6:
-                found = nodes[j]
-                break
-            j += 1
-        out.append(found)
-    return out
-
-
 def _distances(
     reports: Sequence[VehicleReport],
     speeds: np.ndarray,
@@ -460,17 +436,36 @@ def _hypotheses(
 def _approaches(
     paths: tuple[Path, ...],
 ) -> tuple[tuple[ConflictApproach, ...], tuple[tuple[int, ...], ...]]:
-    """The distinct ways a hypothesis' paths pass conflict points, and each path's."""
+    """The distinct ways a hypothesis' paths pass conflict points, and each path's.
+
+    A way is the conflict point with the move of the first node of the path within 1e-6 m
+    of it (the edges it arrives on and leaves by), or its own edge when no node is there (a
+    crossing along edges). Conflict points and nodes are both sorted by distance: one walk,
+    the window a little wider than the test so that no node the test would accept is
+    skipped.
+    """
     # keyed by plain tuples: hashing a frozen dataclass rebuilds a tuple on every look-up
     index: dict[tuple[int, float, int, int], int] = {}
     per_path = []
     for p in paths:
         mine = []
-        for cp, node in zip(p.conflicts, _nodes_at(p), strict=True):
-            if node is not None:
-                key = (cp.conflict_id, cp.distance_m, node.from_edge, node.to_edge)
-            else:
-                key = (cp.conflict_id, cp.distance_m, cp.edge_id, cp.edge_id)
+        nodes = p.nodes
+        n_nodes = len(nodes)
+        i = 0
+        for cp in p.conflicts:
+            d = cp.distance_m
+            while i < n_nodes and nodes[i].distance_m < d - 2e-6:
+                i += 1
+            key = None
+            for j in range(i, n_nodes):
+                node = nodes[j]
+                if node.distance_m > d + 2e-6:
+                    break
+                if abs(node.distance_m - d) < 1e-6:
+                    key = (cp.conflict_id, d, node.from_edge, node.to_edge)
+                    break
+            if key is None:
+                key = (cp.conflict_id, d, cp.edge_id, cp.edge_id)
             k = index.get(key)
             if k is None:
                 k = index[key] = len(index)
