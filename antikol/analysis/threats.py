@@ -9,7 +9,7 @@ paper's sector rule would have flagged.
 
 from __future__ import annotations
 
-import math
+import operator
 
 import numpy as np
 import shapely
@@ -20,6 +20,8 @@ from antikol.analysis.views import CycleViews, VehicleView
 from trackmap import TrackMap
 
 __all__ = ["suppression_reason", "track_threat"]
+
+_EDGE_ID = operator.attrgetter("edge_id")
 
 
 def track_threat(own: VehicleView, other: VehicleView, result: PairOutcome) -> Threat:
@@ -76,7 +78,10 @@ def suppression_reason(
     """
     if net is None:  # pragma: no cover - guarded by the caller
         return "not_reachable"
-    own_edges = {s.edge_id for h in own.hyps for p in h.paths for s in p.steps}
+    own_edges: set[int] = set()
+    for h in own.hyps:
+        for p in h.paths:
+            own_edges.update(map(_EDGE_ID, p.steps))
     oth_edges = {h.edge_id for h in other.hyps}
     for a, b, _, _ in net.grade_separated:
         if (a in own_edges and b in oth_edges) or (b in own_edges and a in oth_edges):
@@ -90,7 +95,8 @@ def suppression_reason(
     if pos is not None and pos.edge_id is not None and pos.offset_m is not None:
         pt = shapely.Point(net.point_at(pos.edge_id, pos.offset_m))
         geoms = [net.edges[e].geometry for e in own_edges]
-        near = float(np.min(shapely.distance(pt, geoms))) if geoms else math.inf
-        if near <= parallel_distance_m:
+        # within the distance of any own track (GEOS stops at the first; the same test as
+        # the smallest distance compared with it)
+        if geoms and bool(np.any(shapely.dwithin(pt, geoms, parallel_distance_m))):
             return "parallel_track"
     return "not_reachable"
