@@ -79,14 +79,16 @@ def carry(
     (slot 0) goes on along the branch holding the most probability of all hypotheses."""
     f = fleet
     slots = np.flatnonzero(f.hs[row] >= 0)
-    grown: list[tuple[float, int, float, int]] = []  # log-p, state, offset, parent slot
+    # log-p, state, offset, parent slot, the state it entered its own from (-1: not known)
+    grown: list[tuple[float, int, float, int, float]] = []
     for k in slots.tolist():
         s = int(f.hs[row, k])
         edge, off, d = s >> 1, float(f.ho[row, k]), 1 - 2 * (s & 1)
         moved = off + d * travelled_m
         length = float(reach.lengths[edge])
+        came = float(f.hv[row, k])
         if 0.0 <= moved <= length or travelled_m < 1e-6:
-            grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
+            grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k, came))
             continue
         paths = net.paths_ahead(
             edge,
@@ -99,13 +101,19 @@ def carry(
         if route and paths:
             paths = [preferred_path(paths, route)]
         if not paths:
-            grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k))
+            grown.append((float(f.hp[row, k]), s, min(max(moved, 0.0), length), k, came))
             continue
         share = math.log(1.0 / len(paths))
         for p in paths:
             last = p.steps[-1]
             sid = int(state_id(last.edge_id, last.direction))
-            grown.append((float(f.hp[row, k]) + share, sid, last.exit_offset_m, k))
+            if sid == s:
+                entered = came
+            elif len(p.steps) > 1:
+                entered = float(state_id(p.steps[-2].edge_id, p.steps[-2].direction))
+            else:  # pragma: no cover - a path that leaves its edge has a second step
+                entered = -1.0
+            grown.append((float(f.hp[row, k]) + share, sid, last.exit_offset_m, k, entered))
     if not grown:
         return
     # the reported lineage goes on along the branch that holds the most probability
@@ -125,6 +133,7 @@ def carry(
     for name, values in cols.items():
         getattr(f, name)[row, :m] = values
     f.ho[row, :m] = [g[2] for g in kept]
+    f.hv[row, :m] = [g[4] for g in kept]
     lp = np.array([g[0] for g in kept])
     f.hp[row, :m] = lp - np.logaddexp.reduce(lp)
     f.hg[row, :m] += travelled_m

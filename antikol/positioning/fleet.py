@@ -23,7 +23,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 #: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
-SLOT_FIELDS = ("ho", "hp", "hg", "hw", "bx", "by", "pxx", "pxy", "pyy")
+SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", "bx", "by", "pxx", "pxy", "pyy")
 #: Per-vehicle float arrays of the fleet state.
 VEHICLE_FIELDS = ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
 
@@ -39,13 +39,15 @@ class FleetState:
 
     k: int
     # per hypothesis (vehicles x k): state id, offset on the edge (m), log-probability,
-    # progress along its history (m), time running wrong way (s), GPS bias east and
-    # north (m) and its covariance (m²)
+    # progress along its history (m), time running wrong way (s), the state id it entered
+    # its own from (as a float; -1: not known), GPS bias east and north (m) and its
+    # covariance (m²)
     hs: IntArray = field(init=False)
     ho: FloatArray = field(init=False)
     hp: FloatArray = field(init=False)
     hg: FloatArray = field(init=False)
     hw: FloatArray = field(init=False)
+    hv: FloatArray = field(init=False)
     bx: FloatArray = field(init=False)
     by: FloatArray = field(init=False)
     pxx: FloatArray = field(init=False)
@@ -113,6 +115,7 @@ class FleetState:
         """Empty one row (a new or forgotten vehicle)."""
         self.hs[row] = -1
         self.hp[row] = -math.inf
+        self.hv[row] = -1.0
         for name in ("t", "x", "y", "odo", "odo_fix", "t_fix"):
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = 0.0

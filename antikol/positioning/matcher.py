@@ -19,10 +19,15 @@ The forward algorithm gives each hypothesis its probability; the top ``max_hypot
 survive, so past a switch both branches stay alive until the evidence separates them. The
 reported position follows one **lineage**: it moves to a hypothesis that does not descend
 from the previous one only when that hypothesis is decisive (``switch_probability``), so
-successive positions are connected by the track. An along-track Kalman filter fuses the
-lineage's travelled distance with the reported speed (or the odometer); during a GPS outage
-it dead-reckons along the most probable path until its uncertainty, the outage length or
-the distance run on the odometer passes a limit, when the position is declared ``lost``.
+successive positions are connected by the track (:mod:`antikol.positioning.lineage`; a
+standing vehicle keeps its lineage until then however little is left of it). A hypothesis
+remembers the track it entered its own from: a step back (the fixes of a standing vehicle
+scatter round it) crosses a trailing switch only onto that track
+(:meth:`~antikol.positioning.reach.ReachTable.signed_distance`). An along-track Kalman
+filter fuses the lineage's travelled distance with the reported speed (or the odometer);
+during a GPS outage it dead-reckons along the most probable path until its uncertainty,
+the outage length or the distance run on the odometer passes a limit, when the position is
+declared ``lost``.
 
 Everything per report is vectorised over the fleet: :meth:`Positioner.update_many` handles
 one cycle of a whole city in a few array operations.
@@ -60,6 +65,7 @@ from antikol.positioning.fleet import (
     FleetState,
 )
 from antikol.positioning.kalman import track_estimate
+from antikol.positioning.lineage import plan_slots
 from antikol.positioning.outputs import (
     Placement,
     asked_time,
@@ -437,6 +443,7 @@ class Positioner:
         unmatched, skip, fresh = scored.unmatched, scored.stuck, scored.fresh
         cv, cs, co, lp = scored.cv, scored.cs, scored.co, scored.log_p
         prog, parent, ww = scored.progress, scored.parent, scored.wrong_way_s
+        came = scored.came_from
         bias_cols, along_sigma = scored.bias, scored.along_sigma
         finite = np.isfinite(lp)
         # normalise per vehicle (candidates are grouped by vehicle, in vehicle order)
@@ -462,8 +469,8 @@ class Positioner:
                 reports,
                 rows,
                 (t, speed, odo, along_sigma),
-                (rank_order, bounds, p, parent, fresh),
-                (cs, co, prog, ww, bias_cols),
+                (rank_order, bounds, p, parent, fresh, scored.standing),
+                (cs, co, prog, ww, came, bias_cols),
             )
         self._set_fixes(np.flatnonzero(~skip), reports, rows, t, speed, odo, xs, ys)
         if not len(go):
@@ -496,53 +503,40 @@ class Positioner:
         reports: list[VehicleReport],
         rows: IntArray,
         measured: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
-        ranking: tuple[IntArray, IntArray, FloatArray, IntArray, npt.NDArray[np.bool_]],
-        candidates: tuple[IntArray, FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]],
+        ranking: tuple[
+            IntArray, IntArray, FloatArray, IntArray, npt.NDArray[np.bool_], npt.NDArray[np.bool_]
+        ],
+        candidates: tuple[
+            IntArray, FloatArray, FloatArray, FloatArray, FloatArray, tuple[FloatArray, ...]
+        ],
     ) -> None:
         """Store the kept hypotheses of the committed reports ``go``: the most probable
         ``max_hypotheses`` (beyond the first only those above ``min_probability``), the one
-        the reported position follows in slot 0; then run their along-track filters.
+        the reported position follows in slot 0 (:func:`~antikol.positioning.lineage.plan_slots`);
+        then run their along-track filters.
 
         ``measured``: time, speed, odometer and along-track sigma of each report;
         ``ranking``: candidates in rank order, the bounds of each report's, their
-        probabilities, parent slots and whether each report starts afresh;
-        ``candidates``: state id, offset, progress, wrong-way time and GPS bias of each."""
+        probabilities, parent slots, whether each report starts afresh and whether the
+        vehicle stands;
+        ``candidates``: state id, offset, progress, wrong-way time, the state it came from
+        and GPS bias of each."""
         c = self.config
-        rank_order, bounds, p, parent, fresh = ranking
-        cs, co, prog, ww, bias_cols = candidates
+        rank_order, bounds, p, parent, fresh, standing = ranking
+        cs, co, prog, ww, came, bias_cols = candidates
         f = self._f
-        n_ranked = len(rank_order)
-        group = np.searchsorted(bounds, np.arange(n_ranked), side="right") - 1
-        place = np.arange(n_ranked) - bounds[group]  # rank within the report's candidates
-        ranked_p = p[rank_order]
-        member = (place < self._k) & ((place == 0) | (ranked_p >= c.min_probability))
-        member &= np.isin(group, go)
-        # the reported lineage: the best hypothesis, unless it leaves the previous lineage
-        # without being decisive (``switch_probability``) while a member of it stays
-        # plausible
-        best = rank_order[bounds[go]]
-        lineage_at = np.where(
-            member & (place > 0) & (parent[rank_order] == 0), np.arange(n_ranked), n_ranked
+        chosen, m_idx, m_group, col = plan_slots(
+            rank_order,
+            bounds,
+            p,
+            parent,
+            go,
+            fresh=fresh,
+            standing=standing,
+            k=self._k,
+            min_probability=c.min_probability,
+            switch_probability=c.switch_probability,
         )
-        first_lineage = np.full(len(bounds), n_ranked)
-        np.minimum.at(first_lineage, group, lineage_at)
-        first_lineage = first_lineage[go]
-        has_lineage = first_lineage < n_ranked
-        lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
-        keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= c.switch_probability)
-        chosen = np.where(
-            ~keep_best & has_lineage & (p[lineage] > 1.0 - c.switch_probability), lineage, best
-        )
-        # slots: the chosen one first, then the other members in rank order
-        chosen_of = np.full(len(bounds), -1)
-        chosen_of[go] = chosen
-        m_pos = np.flatnonzero(member)
-        m_idx, m_group = rank_order[m_pos], group[m_pos]
-        m_rank = np.arange(len(m_pos)) - np.searchsorted(m_group, m_group)
-        chosen_rank = np.zeros(len(bounds), dtype=np.int64)
-        is_chosen = m_idx == chosen_of[m_group]
-        chosen_rank[m_group[is_chosen]] = m_rank[is_chosen]
-        col = np.where(is_chosen, 0, np.where(m_rank < chosen_rank[m_group], m_rank + 1, m_rank))
         r = rows[m_group]
         done = rows[go]
         f.hs[done] = -1
@@ -552,6 +546,7 @@ class Positioner:
         f.hp[r, col] = np.log(np.maximum(p[m_idx], 1e-300))
         f.hg[r, col] = prog[m_idx]
         f.hw[r, col] = ww[m_idx]
+        f.hv[r, col] = came[m_idx]
         for name, values in zip(("bx", "by", "pxx", "pxy", "pyy"), bias_cols, strict=True):
             getattr(f, name)[r, col] = values[m_idx]
         switched = ~fresh[go] & (parent[chosen] != 0)
@@ -750,6 +745,7 @@ class Positioner:
         self._f.hp[row, 0] = 0.0
         self._f.hg[row, 0] = s
         self._f.hw[row, 0] = 0.0
+        self._f.hv[row] = -1.0
         kf = self._f.kf
         kf.t[row], kf.s[row], kf.v[row] = t, s, v
         kf.pss[row], kf.psv[row], kf.pvv[row] = c.fix_sigma_m**2, 0.0, kf.pvv[row]

@@ -35,6 +35,7 @@ __all__ = ["ReachTable", "state_direction", "state_edge", "state_id"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
 
 #: Sources handled per Dijkstra call (bounds the dense result to a few MB).
 _CHUNK = 256
@@ -101,8 +102,14 @@ class ReachTable:
         self.allowed: npt.NDArray[np.bool_] = np.array(
             [e.allows(1 if k % 2 == 0 else -1) for e in edges for k in (0, 1)], dtype=bool
         )
-        self._physical = self._distances(track_map.traversal_any)
-        self._permitted = self._distances(track_map.traversal)
+        self._physical = self._distances(track_map.traversal_any.edges())
+        self._permitted = self._distances(track_map.traversal.edges())
+        # steps back (a standing vehicle's fixes scatter around it) cross only nodes where
+        # the track behind is unambiguous: stepping back from past a trailing switch onto
+        # one of the tracks that join there would let a hypothesis change track without
+        # moving (a tram waiting at a junction, placed on one joining track and the other)
+        self._behind_physical = self._distances(_unbranched(track_map.traversal_any))
+        self._behind_permitted = self._distances(_unbranched(track_map.traversal))
 
     @classmethod
     def for_map(cls, track_map: Any, *, reach_m: float) -> ReachTable:
@@ -118,8 +125,9 @@ class ReachTable:
             table = per_map[reach_m] = cls(track_map, reach_m=reach_m)
         return table
 
-    def _distances(self, graph: Any) -> _Distances:
-        """Dijkstra over a graph with an entry and an exit node per state.
+    def _distances(self, moves: Any) -> _Distances:
+        """Dijkstra over the moves between states (pairs of (edge, direction)), with an
+        entry and an exit node per state.
 
         entry(s) -> exit(s) weighs the edge's length, exit(u) -> entry(v) is a move at a
         node (0 m), so the distance from exit(u) to entry(v) is the track between them.
@@ -132,7 +140,7 @@ class ReachTable:
             rows.append(s)  # entry(s) = s
             cols.append(n + s)  # exit(s) = n + s
             weights.append(max(float(self.lengths[s >> 1]), 1e-6))
-        for (eu, du), (ev, dv) in graph.edges():
+        for (eu, du), (ev, dv) in moves:
             rows.append(n + int(state_id(eu, du)))
             cols.append(int(state_id(ev, dv)))
             weights.append(1e-9)  # csgraph drops explicit zeros
@@ -191,6 +199,39 @@ class ReachTable:
         along = (to_offset_m - frm_offset_m) * np.where((frm & 1) == 0, 1.0, -1.0)
         return np.where(same & (along >= -1e-9), along, out)
 
+    def adjacent(self, frm: IntArray, to: IntArray, *, physical: bool = True) -> BoolArray:
+        """Whether state ``to`` is entered straight from the end of state ``frm`` (one node
+        between them, no track)."""
+        frm = np.asarray(frm, dtype=np.int64)
+        to = np.asarray(to, dtype=np.int64)
+        table = self._physical if physical else self._permitted
+        return np.asarray(table.lookup(frm, to, self.n_states) < 1e-5)
+
+    def behind(
+        self,
+        frm: IntArray,
+        frm_offset_m: FloatArray,
+        to: IntArray,
+        to_offset_m: FloatArray,
+        *,
+        physical: bool = True,
+    ) -> FloatArray:
+        """Distance from one position running in state ``frm`` back to another of the same
+        running direction, m: ``inf`` where ``to`` lies beyond a node at which several
+        tracks join behind ``frm`` (a trailing switch: which of them the vehicle came by is
+        not known from the states), ahead on the same edge, or beyond ``reach_m``.
+        """
+        frm = np.asarray(frm, dtype=np.int64) ^ 1
+        to = np.asarray(to, dtype=np.int64) ^ 1
+        frm_offset_m = np.asarray(frm_offset_m, dtype=float)
+        to_offset_m = np.asarray(to_offset_m, dtype=float)
+        table = self._behind_physical if physical else self._behind_permitted
+        between = table.lookup(frm, to, self.n_states)
+        out = self.remaining(frm, frm_offset_m) + between + self.since_entry(to, to_offset_m)
+        same = frm == to
+        along = (to_offset_m - frm_offset_m) * np.where((frm & 1) == 0, 1.0, -1.0)
+        return np.where(same & (along >= -1e-9), along, out)
+
     def signed_distance(
         self,
         frm: IntArray,
@@ -200,17 +241,37 @@ class ReachTable:
         *,
         physical: bool = True,
         expected_m: FloatArray | float = 0.0,
+        came_from: IntArray | None = None,
     ) -> FloatArray:
         """Signed along-track distance from a position to a candidate of the same running
         direction: positive ahead, negative behind, m.
 
         When the candidate is both ahead (by going round) and behind, the one closer to
-        ``expected_m`` is returned; ``inf`` when neither is within ``reach_m``.
+        ``expected_m`` is returned; ``inf`` when neither is within ``reach_m``. Behind is
+        as :meth:`behind` (not back across a trailing switch), except onto ``came_from``:
+        the state each position entered its own from, where known (-1: not known).
         """
         frm = np.asarray(frm, dtype=np.int64)
         to = np.asarray(to, dtype=np.int64)
         fwd = self.ahead(frm, frm_offset_m, to, to_offset_m, physical=physical)
-        back = self.ahead(frm ^ 1, frm_offset_m, to ^ 1, to_offset_m, physical=physical)
+        back = self.behind(frm, frm_offset_m, to, to_offset_m, physical=physical)
+        if came_from is not None:
+            # the track it came by: back across the switch the way it came
+            home = np.broadcast_to(np.asarray(came_from, dtype=np.int64), to.shape) == to
+            home &= ~np.isfinite(back)
+            if home.any():
+                fo = np.broadcast_to(np.asarray(frm_offset_m, dtype=float), to.shape)
+                tof = np.broadcast_to(np.asarray(to_offset_m, dtype=float), to.shape)
+                back = back.copy()
+                back[home] = self.ahead(
+                    frm[home] ^ 1, fo[home], to[home] ^ 1, tof[home], physical=physical
+                )
         expected = np.asarray(expected_m, dtype=float)
         use_back = np.abs(-back - expected) < np.abs(fwd - expected)
         return np.where(use_back, -back, fwd)
+
+
+def _unbranched(graph: Any) -> list[tuple[Any, Any]]:
+    """The moves of a state graph from states with a single successor: reversed, the
+    moves back across nodes where the track behind is unambiguous."""
+    return [(u, v) for u, v in graph.edges() if graph.out_degree(u) == 1]

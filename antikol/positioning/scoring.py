@@ -44,18 +44,21 @@ class Scored:
     Per fix: ``unmatched`` (no candidate), ``stuck`` (the vehicle has hypotheses but none
     reaches a candidate by a plausible move, there is no candidate, or the best candidate
     scores below ``-outlier_fix_nats``: the fix is an outlier and rejected), ``fresh``
-    (the vehicle starts afresh), ``rejected`` (its rejections in a row after this step) and
+    (the vehicle starts afresh), ``standing`` (it ran less than ``standstill_distance_m``
+    since its last fix), ``rejected`` (its rejections in a row after this step) and
     ``along_sigma`` (the fix's error along the track, m). Per candidate state: the fix it
     belongs to (``cv``), the state id (``cs``), the offset (``co``, m), the log-probability
     (``log_p``), the progress along its lineage (``progress``, m), the parent slot
-    (``parent``, -1 for a new lineage), the time running wrong way (``wrong_way_s``) and
-    the GPS bias estimate (``bias``: east, north, m; covariance, m²). ``stats`` counts what
+    (``parent``, -1 for a new lineage), the time running wrong way (``wrong_way_s``), the
+    state it entered its own from (``came_from``, a float; -1: not known) and the GPS bias
+    estimate (``bias``: east, north, m; covariance, m²). ``stats`` counts what
     happened.
     """
 
     unmatched: BoolArray
     stuck: BoolArray
     fresh: BoolArray
+    standing: BoolArray
     rejected: IntArray
     along_sigma: FloatArray
     cv: IntArray
@@ -65,6 +68,7 @@ class Scored:
     progress: FloatArray
     parent: IntArray
     wrong_way_s: FloatArray
+    came_from: FloatArray
     bias: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
     stats: Counter[str]
 
@@ -156,7 +160,8 @@ def score_fixes(
     h = np.radians(heading)
     nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
     static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
-    weight = np.where(travelled < c.standstill_distance_m, c.standstill_evidence_weight, 1.0)
+    standing = travelled < c.standstill_distance_m
+    weight = np.where(standing, c.standstill_evidence_weight, 1.0)
     noise_var = (sigma * sigma)[cv]
     floor = c.outlier_weight / (2.0 * radius[cv])
 
@@ -168,8 +173,14 @@ def score_fixes(
     pss = np.where(valid, ps, 0)
     po = fleet.ho[prow]
     exp_m = travelled[cv][:, None]
+    came_from = fleet.hv[prow].astype(np.int64)
     dist = reach.signed_distance(
-        pss, po, np.repeat(cs[:, None], k, 1), np.repeat(co[:, None], k, 1), expected_m=exp_m
+        pss,
+        po,
+        np.repeat(cs[:, None], k, 1),
+        np.repeat(co[:, None], k, 1),
+        expected_m=exp_m,
+        came_from=came_from,
     )
     beta = np.where(
         has_odo,
@@ -272,6 +283,8 @@ def score_fixes(
     new_prog = np.where(use0, 0.0, fleet.hg[prow][ar, best] + dist[ar, best])
     new_parent = np.where(use0, -1, best)
     new_ww = np.where(wrong, np.where(use0, 0.0, fleet.hw[prow][ar, best] + dt[cv]), 0.0)
+    entered = _came_from(reach, pss[ar, best], came_from[ar, best], cs, dist[ar, best])
+    new_came: FloatArray = np.where(use0 | rev_ok[ar, best], -1.0, entered.astype(float))
 
     def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
         return np.where(use0, a0, a[ar, best])
@@ -287,6 +300,7 @@ def score_fixes(
         unmatched,
         stuck & ~fresh,
         fresh,
+        standing,
         rejected,
         np.hypot(sigma, bias_sigma),
         cv,
@@ -296,6 +310,18 @@ def score_fixes(
         new_prog,
         new_parent,
         new_ww,
+        new_came,
         bias_cols,
         stats,
     )
+
+
+def _came_from(
+    reach: ReachTable, parent: IntArray, parent_came: IntArray, state: IntArray, moved: FloatArray
+) -> IntArray:
+    """The state each new hypothesis entered its own from: its parent's where it stays in
+    the parent's state, the parent's state where it ran forward straight into the next
+    one, else not known (-1: it ran over a short edge or stepped back)."""
+    same = state == parent
+    straight = (moved >= 0.0) & ~same & reach.adjacent(parent, state)
+    return np.where(same, parent_came, np.where(straight, parent, -1))

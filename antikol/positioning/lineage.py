@@ -1,0 +1,108 @@
+"""Which hypotheses a vehicle keeps after a fix, and which one its reported position follows.
+
+The candidates of a batch of fixes, ranked per vehicle, become each vehicle's hypothesis
+slots: the most probable ``k`` (beyond the first only those above ``min_probability``).
+Slot 0 is the **lineage** the reported position follows: the best candidate, unless it does
+not descend from the previous slot 0 and is not decisive (below ``switch_probability``)
+while a descendant of the previous lineage is still plausible — so successive reported
+positions stay connected by the track. A standing vehicle has not left its lineage's
+place: only decisive evidence moves it to another, however little is left of the lineage
+(the fixes of a tram waiting beside another track drift; the tram does not).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["SlotPlan", "plan_slots"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+class SlotPlan(NamedTuple):
+    """Where the kept candidates go.
+
+    Attributes
+    ----------
+    chosen : ndarray of int
+        Per committed report, the candidate its reported position follows (slot 0).
+    candidate, report, slot : ndarray of int
+        Per kept candidate: its index, the index of its report in ``bounds`` and its slot.
+    """
+
+    chosen: IntArray
+    candidate: IntArray
+    report: IntArray
+    slot: IntArray
+
+
+def plan_slots(
+    rank_order: IntArray,
+    bounds: IntArray,
+    p: FloatArray,
+    parent: IntArray,
+    go: IntArray,
+    *,
+    fresh: BoolArray,
+    standing: BoolArray,
+    k: int,
+    min_probability: float,
+    switch_probability: float,
+) -> SlotPlan:
+    """Keep the best ``k`` candidates of each committed report and order them into slots.
+
+    Parameters
+    ----------
+    rank_order : ndarray of int
+        The candidates, grouped by report and most probable first within each.
+    bounds : ndarray of int
+        Start of each report's candidates in ``rank_order`` (one more entry at the end).
+    p, parent : ndarray
+        Per candidate: probability, and the slot of the previous hypothesis it descends
+        from (-1: a new lineage).
+    go : ndarray of int
+        The reports committed to hypotheses (indices into ``bounds``).
+    fresh, standing : ndarray of bool
+        Per report: it starts afresh; the vehicle stands.
+    k : int
+        Slots per vehicle.
+    min_probability, switch_probability : float
+        See :class:`~antikol.positioning.config.PositioningConfig`.
+
+    Returns
+    -------
+    SlotPlan
+    """
+    n_ranked = len(rank_order)
+    group = np.searchsorted(bounds, np.arange(n_ranked), side="right") - 1
+    place = np.arange(n_ranked) - bounds[group]  # rank within the report's candidates
+    member = (place < k) & ((place == 0) | (p[rank_order] >= min_probability))
+    member &= np.isin(group, go)
+    best = rank_order[bounds[go]]
+    lineage_at = np.where(
+        member & (place > 0) & (parent[rank_order] == 0), np.arange(n_ranked), n_ranked
+    )
+    first_lineage = np.full(len(bounds), n_ranked)
+    np.minimum.at(first_lineage, group, lineage_at)
+    first_lineage = first_lineage[go]
+    has_lineage = first_lineage < n_ranked
+    lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
+    keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= switch_probability)
+    held = has_lineage & ((p[lineage] > 1.0 - switch_probability) | standing[go])
+    chosen = np.where(~keep_best & held, lineage, best)
+    # slots: the chosen one first, then the other members in rank order
+    chosen_of = np.full(len(bounds), -1)
+    chosen_of[go] = chosen
+    m_pos = np.flatnonzero(member)
+    m_idx, m_group = rank_order[m_pos], group[m_pos]
+    m_rank = np.arange(len(m_pos)) - np.searchsorted(m_group, m_group)
+    chosen_rank = np.zeros(len(bounds), dtype=np.int64)
+    is_chosen = m_idx == chosen_of[m_group]
+    chosen_rank[m_group[is_chosen]] = m_rank[is_chosen]
+    col = np.where(is_chosen, 0, np.where(m_rank < chosen_rank[m_group], m_rank + 1, m_rank))
+    return SlotPlan(chosen, m_idx, m_group, col)
