@@ -15,7 +15,8 @@ switch, the share of ``confident`` estimates that are on the wrong track, moving
 track running the tram's way, 10-s windows that no permitted route connects, the
 along-track RMS error of the estimates (and of the raw fixes projected on the track), and the
 reliability table (estimates binned by their ``probability`` against the share of them on
-the right track). ``--figure`` draws the reliability diagram (needs matplotlib).
+the right track), and the wrong estimates and broken windows pooled over the seeds.
+``--figure`` draws the reliability diagram (needs matplotlib).
 """
 
 from __future__ import annotations
@@ -83,6 +84,26 @@ def main() -> None:
             _, _, fixes, right = rows[k]
             cells.append(f"{fixes:,} | {'-' if not fixes else f'{100 * right / fixes:.1f} %'}")
         print(f"| {lo:.2f}–{hi:.2f} | " + " | ".join(cells) + " |")
+    print("\nPooled over the seeds: estimates that are wrong, and windows no route connects")
+    print(
+        "\n| GPS | double track: wrong of | past a switch: wrong of "
+        "| confident: wrong of | disconnected windows of |"
+    )
+    print("|---|---:|---:|---:|---:|")
+    for name, scores in results.items():
+
+        def wrong(total: str, right: str, scores: list[PositioningScore] = scores) -> str:
+            n = sum(getattr(s, total) for s in scores)
+            return f"{n - sum(getattr(s, right) for s in scores):,} of {n:,}"
+
+        confident = sum(s.confident_fixes for s in scores)
+        print(
+            f"| {name} | {wrong('double_track_fixes', 'double_track_right')} "
+            f"| {wrong('after_switch_fixes', 'after_switch_correct')} "
+            f"| {sum(s.confident_wrong for s in scores):,} of {confident:,} "
+            f"| {sum(s.disconnected_windows for s in scores):,} of "
+            f"{sum(s.windows for s in scores):,} |"
+        )
     if args.figure:
         import matplotlib
 
