@@ -11,7 +11,10 @@ holds the most probability, and the reported place is as unsure as the split mak
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +28,7 @@ from tests._osm import FRAME, STRAIGHT_LINE, OsmBuilder, straight_fixture, switc
 from tests._paths import reports_along
 
 LINE = STRAIGHT_LINE
+_STRAY_FIX = "outlier_beside_a_merging_track.json"
 
 
 @pytest.fixture(scope="module")
@@ -359,3 +363,56 @@ def test_carried_over_a_node_a_hypothesis_remembers_the_track_it_came_by(merge_n
     assert int(fleet.hv[0, 0]) == state_id(straight.edge_id, 1)
     assert int(fleet.hs[0, 1]) == state_id(other.edge_id, 1)
     assert int(fleet.hv[0, 1]) == -1
+
+
+def test_one_stray_fix_beside_a_merging_track_does_not_relocate_the_tram():
+    # street GPS (the simulator's urban model): a tram runs through a curve towards a
+    # trailing switch; one fix lands on the other track that joins there, which no move
+    # from the tram's track reaches, and agrees with its heading. It used to be taken as
+    # a relocation at probability 0.997: the position went over to the other track and
+    # back, "confident" all along
+    data = json.loads((Path(__file__).parent / "data" / _STRAY_FIX).read_text())
+    net = trackmap.load_default()
+    pos = Positioner(net)
+    out = []
+    for t, lat, lon, speed, course, odometer, quality in data["reports"]:
+        report = VehicleReport(
+            "T02", t, lat, lon, speed, course, odometer_m=odometer, fix_quality=quality
+        )
+        out.append(pos.update(report))
+    assert all(p.matched for p in out[5:])
+    for p, q in itertools.pairwise(out[5:]):
+        ahead = net.route_distance(
+            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
+        )
+        back = net.route_distance(
+            q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
+        )
+        assert ahead is not None or back is not None, (p, q)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_turn_the_map_does_not_connect_is_followed_within_two_fixes(tmp_path, seed):
+    # the tram turns from one track onto another where the map has no connection (the
+    # OSM ways cross without a shared node): the move cannot be followed, the other track
+    # is taken by relocation — on the second fix that it explains best, not the first
+    b = OsmBuilder()
+    b.line([(0, -400), (0, 400)], oneway="yes")
+    b.line([(-300, 0.5), (300, 0.5)], oneway="no")
+    net = trackmap.build(b.write_xml(tmp_path / "unjoined.osm"))
+    crossing = {e.edge_id for e in net.edges if e.way_ids == (2,)}
+    rng = np.random.default_rng(seed)
+    pos = Positioner(net)
+    after = []
+    for k in range(45):
+        s = -250.0 + 8.0 * k  # along the first track, then (s > 0) along the other
+        x, y, course = (0.0, s, 0.0) if s < 0 else (s, 0.5, 90.0)
+        lon, lat = FRAME.to_lonlat(x + rng.normal(0.0, 2.0), y + rng.normal(0.0, 2.0))
+        report = VehicleReport(
+            "V", float(k), float(lat), float(lon), 8.0, course, odometer_m=1000.0 + 8.0 * k
+        )
+        p = pos.update(report)
+        if s > 0:
+            after.append(p)
+    assert all(p.edge_id in crossing and p.status == "confident" for p in after[2:]), after
+    assert pos.stats["relocated"] >= 1

@@ -66,7 +66,9 @@ class PositioningConfig:
         Log-probability that the vehicle is where none of its hypotheses can have taken
         it (a track missing from the map, a wrong connection in it): the filter recovers
         from map errors instead of holding on to an impossible history. Only a candidate
-        that no plausible move reaches (``implausible_move_nats``) is relocated.
+        that no plausible move reaches (``implausible_move_nats``) is relocated, and only
+        on the second fix in a row that a relocation explains best (one stray fix beside
+        the track, on another track the vehicle cannot have reached, is an outlier).
     transition_beta_m : float
         Scale of the transition likelihood, m (plus 10 % of the distance travelled; a tenth
         of that with an odometer).

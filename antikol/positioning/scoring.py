@@ -280,6 +280,16 @@ def score_fixes(
         again = poor & (rejected >= c.max_rejections_in_row)
         stuck = stuck | (poor & ~again)
         rejected[again] = 0
+    # a relocation is taken on the second fix in a row that it explains best: one stray
+    # fix beside the track (a heavy-tailed error landing on another track) is an outlier,
+    # not a jump there and back
+    relocating = np.zeros(n, bool)
+    np.logical_or.at(relocating, cv, moved & (new_lp >= top_lp[cv]))
+    deferred = relocating & ~fresh & ~stuck & (rejected == 0)
+    if deferred.any():
+        stats["relocation_deferred"] += int(np.count_nonzero(deferred))
+        rejected = rejected + deferred
+        stuck = stuck | deferred
     new_prog = np.where(use0, 0.0, fleet.hg[prow][ar, best] + dist[ar, best])
     new_parent = np.where(use0, -1, best)
     new_ww = np.where(wrong, np.where(use0, 0.0, fleet.hw[prow][ar, best] + dt[cv]), 0.0)
