@@ -281,3 +281,42 @@ def test_with_no_refresh_interval_a_late_report_still_goes_to_the_matcher(net):
     an.reported.update_many([reports[3]], outputs=False)
     an.reported.update_many([reports[2]], outputs=False)  # older than the last one matched
     assert seen == [3.0, 2.0]
+
+
+_REPORTED = st.tuples(
+    st.sampled_from([0, 1, 99]),  # an edge of the map, or none
+    st.floats(min_value=-10.0, max_value=2100.0),  # reported offset, m
+    st.floats(min_value=0.0, max_value=2000.0),  # where the fix is along the line, m
+    st.floats(min_value=0.0, max_value=20.0),  # speed, m/s
+    st.floats(min_value=0.0, max_value=359.9),  # course, degrees
+    st.sampled_from([None, 0, 1]),  # fix quality
+    st.booleans(),  # a track position at all
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(batch=st.lists(_REPORTED, min_size=1, max_size=12))
+def test_a_batch_of_reported_positions_is_checked_as_each_alone(net, batch):
+    # the checks of a cycle's reports run in array calls: each report keeps its own reason
+    from antikol.positioning.reported import ReportedFirst
+
+    reports = []
+    for k, (edge, offset, along, speed, course, quality, has_tp) in enumerate(batch):
+        (r,) = reports_along(f"V{k}", LINE, start_m=along, speed_mps=0.0, t=[0.0], frame=FRAME)
+        tp = ReportedTrackPosition(edge, max(offset, 0.0), 1) if has_tp else None
+        reports.append(
+            dataclasses.replace(
+                r, speed_mps=speed, course_deg=course, fix_quality=quality, track_position=tp
+            )
+        )
+    checker = ReportedFirst(net, inner=None)  # type: ignore[arg-type]
+    alone = [checker.check_many([r])[0] for r in reports]
+    assert checker.check_many(reports) == alone
+    assert set(alone) <= {
+        None,
+        "absent",
+        "unknown_edge",
+        "offset_beyond_edge",
+        "far_from_fix",
+        "against_course",
+    }

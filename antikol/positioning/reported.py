@@ -35,6 +35,8 @@ from collections import Counter
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from antikol.positioning.deadreckoning import Advanced, advance
 from antikol.positioning.outputs import asked_time
 from antikol.positioning.records import Hypothesis, PositionSource, TrackPosition, positions_of
@@ -110,25 +112,54 @@ class ReportedFirst:
 
     def check(self, report: VehicleReport) -> str | None:
         """Why a report's track position cannot be used (None when it can)."""
-        tp = report.track_position
-        if tp is None:
-            return "absent"
-        if not 0 <= tp.edge_id < len(self.net.edges):
-            return "unknown_edge"
-        length = self.net.edge_length(tp.edge_id)
-        if tp.offset_m > length + self.settings.length_slack_m:
-            return "offset_beyond_edge"
-        offset = min(tp.offset_m, length)
-        if report.fix_quality != 0:
-            x, y = self.net.point_at(tp.edge_id, offset)
-            fx, fy = self.net.to_local(report.lon, report.lat)
-            if ((fx - x) ** 2 + (fy - y) ** 2) ** 0.5 > self.settings.max_fix_distance_m:
-                return "far_from_fix"
-        if report.speed_mps >= _MOVING_MPS:
-            heading = self.net.heading_at(tp.edge_id, offset, tp.direction)
-            if abs((heading - report.course_deg + 180.0) % 360.0 - 180.0) > 90.0:
-                return "against_course"
-        return None
+        return self.check_many([report])[0]
+
+    def check_many(self, reports: Sequence[VehicleReport]) -> list[str | None]:
+        """:meth:`check` of many reports, the geometry of all in a few array calls."""
+        out: list[str | None] = [None] * len(reports)
+        slack = self.settings.length_slack_m
+        n_edges = len(self.net.edges)
+        placed: list[tuple[int, int, float, int]] = []  # report, edge, offset, direction
+        for k, report in enumerate(reports):
+            tp = report.track_position
+            if tp is None:
+                out[k] = "absent"
+            elif not 0 <= tp.edge_id < n_edges:
+                out[k] = "unknown_edge"
+            else:
+                length = self.net.edge_length(tp.edge_id)
+                if tp.offset_m > length + slack:
+                    out[k] = "offset_beyond_edge"
+                else:
+                    placed.append((k, tp.edge_id, min(tp.offset_m, length), tp.direction))
+        if not placed:
+            return out
+        rows, edges, offsets, directions = (list(c) for c in zip(*placed, strict=True))
+        fixed = [i for i, k in enumerate(rows) if reports[k].fix_quality != 0]
+        if fixed:
+            x, y = self.net.points_at([edges[i] for i in fixed], [offsets[i] for i in fixed])
+            fx, fy = self.net.to_local(
+                np.array([reports[rows[i]].lon for i in fixed]),
+                np.array([reports[rows[i]].lat for i in fixed]),
+            )
+            apart = ((fx - x) ** 2 + (fy - y) ** 2) ** 0.5
+            far_off = (apart > self.settings.max_fix_distance_m).tolist()
+            for i, far in zip(fixed, far_off, strict=True):
+                if far:
+                    out[rows[i]] = "far_from_fix"
+        moving = [
+            i for i, k in enumerate(rows) if out[k] is None and reports[k].speed_mps >= _MOVING_MPS
+        ]
+        if moving:
+            heading = self.net.headings_at(
+                [edges[i] for i in moving],
+                [offsets[i] for i in moving],
+                [directions[i] for i in moving],
+            )
+            for i, h in zip(moving, heading.tolist(), strict=True):
+                if abs((h - reports[rows[i]].course_deg + 180.0) % 360.0 - 180.0) > 90.0:
+                    out[rows[i]] = "against_course"
+        return out
 
     def update_many(
         self, reports: Sequence[VehicleReport], *, outputs: bool = True
@@ -141,9 +172,11 @@ class ReportedFirst:
         refused: Counter[str] = Counter()
         skipped = 0
         matched_at = dict(self._matched_at)
+        reasons = self.check_many([r for r in reports if r.vehicle_id not in self.exclude])
+        checked = iter(reasons)
         for r in reports:
             vid = r.vehicle_id
-            reason = "absent" if vid in self.exclude else self.check(r)
+            reason = "absent" if vid in self.exclude else next(checked)
             usable.append(reason is None)
             if reason is None:
                 last = matched_at.get(vid)
@@ -191,12 +224,17 @@ class ReportedFirst:
         t = asked_time(t)
         out: list[TrackPosition | None] = [None] * len(vehicle_ids)
         matched: list[int] = []
+        carried: list[tuple[int, VehicleReport, float]] = []
         for k, vid in enumerate(vehicle_ids):
             report = self._latest.get(vid)
             if report is None:
                 matched.append(k)
             else:
-                out[k] = self._carried(report, report.t if t is None else float(t))
+                carried.append((k, report, report.t if t is None else float(t)))
+        if carried:
+            used = self._carried([(r, when) for _, r, when in carried])
+            for (k, _, _), position in zip(carried, used, strict=True):
+                out[k] = position
         if matched:
             inner = positions_of(self.inner, [vehicle_ids[k] for k in matched], t)
             for k, pos in zip(matched, inner, strict=True):
@@ -217,14 +255,15 @@ class ReportedFirst:
         )
         return len(paths) > 1
 
-    def _carried(self, report: VehicleReport, t: float) -> TrackPosition:
+    def _moved(self, report: VehicleReport, t: float) -> tuple[Advanced, float]:
+        """A used position carried to ``t`` (s) at the reported speed, and how far it was
+        not carried past an undecided switch (m)."""
         tp = report.track_position
         if tp is None:  # pragma: no cover - only checked reports are kept
             raise RuntimeError("a kept report without a track position")
         edge = self.net.edges[tp.edge_id]
         offset = min(tp.offset_m, edge.length_m)
-        dt = max(t - report.t, 0.0)
-        run_m = report.speed_mps * dt
+        run_m = report.speed_mps * max(t - report.t, 0.0)
         moved = advance(
             self.net,
             tp.edge_id,
@@ -234,41 +273,55 @@ class ReportedFirst:
             report,
             wrong=not edge.allows(tp.direction),
         )
-        undecided_m = 0.0
         if moved.edge_id != tp.edge_id and not report.route and self._branches(tp, offset, run_m):
             # a switch ahead that nothing decides: stop at it rather than guess a branch
             end = edge.length_m if tp.direction == 1 else 0.0
-            undecided_m = run_m - abs(end - offset)
-            moved = Advanced(tp.edge_id, end, tp.direction)
-        wrong = not self.net.edges[moved.edge_id].allows(moved.direction)
-        x, y = self.net.point_at(moved.edge_id, moved.offset_m)
-        lon, lat = self.net.to_lonlat(x, y)
+            return Advanced(tp.edge_id, end, tp.direction), run_m - abs(end - offset)
+        return moved, 0.0
+
+    def _carried(self, asked: Sequence[tuple[VehicleReport, float]]) -> list[TrackPosition]:
+        """The used positions of reports carried to the times asked (s), their places'
+        geometry in array calls."""
+        moves = [self._moved(report, t) for report, t in asked]
+        edges = [m.edge_id for m, _ in moves]
+        offsets = [m.offset_m for m, _ in moves]
+        directions = [m.direction for m, _ in moves]
+        x, y = self.net.points_at(edges, offsets)
+        lons, lats = self.net.to_lonlat(x, y)
+        headings = self.net.headings_at(edges, offsets, directions).tolist()
         s = self.settings
-        hyp = Hypothesis(
-            edge_id=moved.edge_id,
-            direction=moved.direction,
-            offset_m=moved.offset_m,
-            probability=1.0,
-            progress_m=0.0,
-            wrong_way=wrong,
-            # the sender matched itself against the permitted direction: its word is the
-            # sustained evidence a receiver would otherwise wait for
-            wrong_way_s=float("inf") if wrong else 0.0,
-        )
-        return TrackPosition(
-            vehicle_id=report.vehicle_id,
-            t=t,
-            status="confident",
-            edge_id=moved.edge_id,
-            direction=moved.direction,
-            offset_m=moved.offset_m,
-            lon=float(lon),
-            lat=float(lat),
-            heading_deg=self.net.heading_at(moved.edge_id, moved.offset_m, moved.direction),
-            speed_mps=report.speed_mps,
-            probability=1.0,
-            sigma_m=s.sigma_m + s.speed_sigma_mps * dt + undecided_m,
-            wrong_way=wrong,
-            hypotheses=(hyp,),
-            dead_reckoned_s=dt,
-        )
+        out = []
+        for k, ((report, t), (moved, undecided_m)) in enumerate(zip(asked, moves, strict=True)):
+            dt = max(t - report.t, 0.0)
+            wrong = not self.net.edges[moved.edge_id].allows(moved.direction)
+            hyp = Hypothesis(
+                edge_id=moved.edge_id,
+                direction=moved.direction,
+                offset_m=moved.offset_m,
+                probability=1.0,
+                progress_m=0.0,
+                wrong_way=wrong,
+                # the sender matched itself against the permitted direction: its word is
+                # the sustained evidence a receiver would otherwise wait for
+                wrong_way_s=float("inf") if wrong else 0.0,
+            )
+            out.append(
+                TrackPosition(
+                    vehicle_id=report.vehicle_id,
+                    t=t,
+                    status="confident",
+                    edge_id=moved.edge_id,
+                    direction=moved.direction,
+                    offset_m=moved.offset_m,
+                    lon=float(lons[k]),
+                    lat=float(lats[k]),
+                    heading_deg=headings[k],
+                    speed_mps=report.speed_mps,
+                    probability=1.0,
+                    sigma_m=s.sigma_m + s.speed_sigma_mps * dt + undecided_m,
+                    wrong_way=wrong,
+                    hypotheses=(hyp,),
+                    dead_reckoned_s=dt,
+                )
+            )
+        return out
