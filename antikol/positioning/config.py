@@ -90,6 +90,11 @@ class PositioningConfig:
         move along the track connects to it) unless another hypothesis reaches this
         probability or the lineage falls below its complement: a belief flip between
         unconnected tracks must be decisive.
+    standing_switch_probability : float
+        The same while the vehicle stands (it ran less than ``standstill_distance_m``
+        since its last fix), when the lineage is kept however little is left of it: a
+        standing tram cannot change track, while the drift of its fixes (a bias that
+        changes at a standstill) builds up evidence that is not there.
     max_speed_mps, max_accel_mps2 : float
         Physical limits used to reject impossible reports (m/s, m/s²).
     jump_margin_m : float
@@ -151,6 +156,7 @@ class PositioningConfig:
     outlier_fix_nats: float = 20.0
     confidence: float = 0.8
     switch_probability: float = 0.75
+    standing_switch_probability: float = 0.95
     max_speed_mps: float = 30.0
     max_accel_mps2: float = 3.5
     jump_margin_m: float = 30.0
@@ -197,7 +203,12 @@ class PositioningConfig:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
         if self.max_hypotheses < 1:
             raise InvalidArgumentError("max_hypotheses", self.max_hypotheses, "must be >= 1")
-        for name in ("confidence", "switch_probability", "outlier_weight"):
+        for name in (
+            "confidence",
+            "switch_probability",
+            "standing_switch_probability",
+            "outlier_weight",
+        ):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")
 

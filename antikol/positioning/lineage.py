@@ -6,8 +6,9 @@ Slot 0 is the **lineage** the reported position follows: the best candidate, unl
 not descend from the previous slot 0 and is not decisive (below ``switch_probability``)
 while a descendant of the previous lineage is still plausible — so successive reported
 positions stay connected by the track. A standing vehicle has not left its lineage's
-place: only decisive evidence moves it to another, however little is left of the lineage
-(the fixes of a tram waiting beside another track drift; the tram does not).
+place: only very decisive evidence (``standing_switch_probability``) moves it to another,
+however little is left of the lineage (the fixes of a tram waiting beside another track
+drift; the tram does not).
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ def plan_slots(
     k: int,
     min_probability: float,
     switch_probability: float,
+    standing_switch_probability: float,
 ) -> SlotPlan:
     """Keep the best ``k`` candidates of each committed report and order them into slots.
 
@@ -71,7 +73,7 @@ def plan_slots(
         Per report: it starts afresh; the vehicle stands.
     k : int
         Slots per vehicle.
-    min_probability, switch_probability : float
+    min_probability, switch_probability, standing_switch_probability : float
         See :class:`~antikol.positioning.config.PositioningConfig`.
 
     Returns
@@ -92,7 +94,8 @@ def plan_slots(
     first_lineage = first_lineage[go]
     has_lineage = first_lineage < n_ranked
     lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
-    keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= switch_probability)
+    decisive = np.where(standing[go], standing_switch_probability, switch_probability)
+    keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= decisive)
     held = has_lineage & ((p[lineage] > 1.0 - switch_probability) | standing[go])
     chosen = np.where(~keep_best & held, lineage, best)
     # slots: the chosen one first, then the other members in rank order

@@ -20,7 +20,8 @@ survive, so past a switch both branches stay alive until the evidence separates 
 reported position follows one **lineage**: it moves to a hypothesis that does not descend
 from the previous one only when that hypothesis is decisive (``switch_probability``), so
 successive positions are connected by the track (:mod:`antikol.positioning.lineage`; a
-standing vehicle keeps its lineage until then however little is left of it). A hypothesis
+standing vehicle keeps its lineage, however little is left of it, until another hypothesis
+reaches ``standing_switch_probability``). A hypothesis
 remembers the track it entered its own from: a step back (the fixes of a standing vehicle
 scatter round it) crosses a trailing switch only onto that track
 (:meth:`~antikol.positioning.reach.ReachTable.signed_distance`). An along-track Kalman
@@ -536,6 +537,7 @@ class Positioner:
             k=self._k,
             min_probability=c.min_probability,
             switch_probability=c.switch_probability,
+            standing_switch_probability=c.standing_switch_probability,
         )
         r = rows[m_group]
         done = rows[go]

@@ -1,0 +1,52 @@
+"""Which hypothesis the reported position follows (antikol.positioning.lineage)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from antikol.positioning.lineage import plan_slots
+
+
+def _plan(p_best: float, *, standing: bool, p_lineage: float | None = None):
+    # one report, two candidates ranked by probability: the best descends from another
+    # slot (1) than the reported lineage (0); the second descends from the lineage
+    p_lineage = 1.0 - p_best if p_lineage is None else p_lineage
+    return plan_slots(
+        np.array([0, 1]),
+        np.array([0, 2]),
+        np.array([p_best, p_lineage]),
+        np.array([1, 0]),
+        np.array([0]),
+        fresh=np.array([False]),
+        standing=np.array([standing]),
+        k=4,
+        min_probability=1e-4,
+        switch_probability=0.75,
+        standing_switch_probability=0.95,
+    )
+
+
+@pytest.mark.parametrize(
+    ("p_best", "standing", "follows"),
+    [
+        (0.70, False, "lineage"),  # not decisive, the lineage still plausible
+        (0.80, False, "best"),  # decisive while moving
+        (0.80, True, "lineage"),  # not decisive enough for a standing vehicle
+        (0.96, True, "best"),
+    ],
+)
+def test_the_reported_position_leaves_its_lineage_only_on_decisive_evidence(
+    p_best, standing, follows
+):
+    plan = _plan(p_best, standing=standing)
+    assert plan.chosen[0] == (0 if follows == "best" else 1)
+    # the followed candidate goes to slot 0, the other after it
+    slots = dict(zip(plan.candidate.tolist(), plan.slot.tolist(), strict=True))
+    assert slots[int(plan.chosen[0])] == 0 and sorted(slots.values()) == [0, 1]
+
+
+def test_a_standing_vehicle_keeps_its_lineage_however_little_is_left():
+    # moving, a lineage below the switch probability's complement is given up
+    assert _plan(0.6, standing=False, p_lineage=0.1).chosen[0] == 0
+    assert _plan(0.6, standing=True, p_lineage=0.1).chosen[0] == 1
