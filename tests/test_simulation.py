@@ -138,6 +138,17 @@ def test_random_route_stops_at_a_dead_end(straight):
     assert route.end_offset_m == pytest.approx(straight.edge_length(0))
 
 
+def test_a_place_behind_the_start_of_a_route_has_a_negative_distance_when_asked(straight):
+    # a tram's first metres: its antenna lies behind the start of its route, and an
+    # estimate there is on the route's track, not another (the positioning evaluation
+    # counted such estimates as confident and wrong)
+    route = random_route(straight, 1, length_m=500.0, start=(0, 1000.0, 1))
+    assert route.distance_of(0, 997.0) is None
+    assert route.distance_of(0, 997.0, after_m=-50.0) == pytest.approx(-3.0)
+    assert route.distance_of(0, 1003.0, after_m=-50.0) == pytest.approx(3.0)
+    assert route.distance_of(0, 900.0, after_m=-50.0) is None  # behind the asked bound
+
+
 def test_route_distances_and_positions_round_trip(krakow):
     route = random_route(krakow, 11, length_m=2500.0)
     d = np.linspace(0.0, route.length_m, 301)

@@ -396,10 +396,12 @@ def _judge(
     if matched:
         if est.edge_id is None or est.offset_m is None or est.direction is None:
             raise RuntimeError("a matched estimate without a track position")  # pragma: no cover
+        # (a tram's first metres: the estimate may lie on the route's first edge behind
+        # its start, where the antenna truly is; a negative distance, not another track)
         d = spec.route.distance_of(
-            est.edge_id, est.offset_m, after_m=max(s_ant - track_tolerance_m - 20.0, 0.0)
+            est.edge_id, est.offset_m, after_m=s_ant - track_tolerance_m - 20.0
         )
-        on_route = d is not None and spec.route.locate(d)[2] == est.direction
+        on_route = d is not None and spec.route.locate(max(d, 0.0))[2] == est.direction
         right_track = on_route and d is not None and abs(d - s_ant) <= track_tolerance_m
         correct = right_track and d is not None and abs(d - s_ant) <= tolerance_m
         edge = net.edges[est.edge_id]

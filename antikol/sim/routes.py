@@ -245,7 +245,8 @@ class Route:
             Metres from the edge's first vertex.
         after_m : float
             Return the first passage at or after this route distance, metres (routes may
-            pass an edge twice).
+            pass an edge twice); a negative one admits the first edge behind the route's
+            start (a negative distance).
 
         Returns
         -------
@@ -270,7 +271,7 @@ class Route:
         dist = self.entry_m[None, :] + rel
         ok = (
             match
-            & (dist >= max(after_m, 0.0) - 1e-9)
+            & (dist >= after_m - 1e-9)
             & (dist <= self.length_m + 1e-9)
             & (rel >= -1e-9)
             & (rel <= lengths[None, :] + 1e-9)
