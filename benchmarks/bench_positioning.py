@@ -74,7 +74,8 @@ def _right_track(spec, truth, t, edge_id, offset_m, tol_m: float = 8.0) -> bool:
         return False
     i = truth.index_at(t)
     s_ant = float(truth.distance_m[i]) - spec.antenna_m
-    d = spec.route.distance_of(edge_id, offset_m, after_m=max(s_ant - 50.0, 0.0))
+    # (behind the start of the route, in its first metres: a negative distance)
+    d = spec.route.distance_of(edge_id, offset_m, after_m=s_ant - 50.0)
     return d is not None and abs(d - s_ant) <= tol_m
 
 
