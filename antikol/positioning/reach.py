@@ -188,16 +188,8 @@ class ReachTable:
         ``inf`` where ``to`` is not reachable within ``reach_m`` (or lies behind on the
         same edge).
         """
-        frm = np.asarray(frm, dtype=np.int64)
-        to = np.asarray(to, dtype=np.int64)
-        frm_offset_m = np.asarray(frm_offset_m, dtype=float)
-        to_offset_m = np.asarray(to_offset_m, dtype=float)
         table = self._physical if physical else self._permitted
-        between = table.lookup(frm, to, self.n_states)
-        out = self.remaining(frm, frm_offset_m) + between + self.since_entry(to, to_offset_m)
-        same = frm == to
-        along = (to_offset_m - frm_offset_m) * np.where((frm & 1) == 0, 1.0, -1.0)
-        return np.where(same & (along >= -1e-9), along, out)
+        return self._forward(table, frm, frm_offset_m, to, to_offset_m)
 
     def adjacent(self, frm: IntArray, to: IntArray, *, physical: bool = True) -> BoolArray:
         """Whether state ``to`` is entered straight from the end of state ``frm`` (one node
@@ -221,11 +213,24 @@ class ReachTable:
         tracks join behind ``frm`` (a trailing switch: which of them the vehicle came by is
         not known from the states), ahead on the same edge, or beyond ``reach_m``.
         """
+        table = self._behind_physical if physical else self._behind_permitted
+        # back in one running direction is ahead in the other
         frm = np.asarray(frm, dtype=np.int64) ^ 1
-        to = np.asarray(to, dtype=np.int64) ^ 1
+        return self._forward(table, frm, frm_offset_m, np.asarray(to, np.int64) ^ 1, to_offset_m)
+
+    def _forward(
+        self,
+        table: _Distances,
+        frm: IntArray,
+        frm_offset_m: FloatArray,
+        to: IntArray,
+        to_offset_m: FloatArray,
+    ) -> FloatArray:
+        """Distance ahead from ``frm`` to ``to`` over the moves of ``table``, m."""
+        frm = np.asarray(frm, dtype=np.int64)
+        to = np.asarray(to, dtype=np.int64)
         frm_offset_m = np.asarray(frm_offset_m, dtype=float)
         to_offset_m = np.asarray(to_offset_m, dtype=float)
-        table = self._behind_physical if physical else self._behind_permitted
         between = table.lookup(frm, to, self.n_states)
         out = self.remaining(frm, frm_offset_m) + between + self.since_entry(to, to_offset_m)
         same = frm == to
