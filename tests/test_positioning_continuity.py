@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol import VehicleReport
@@ -416,3 +418,34 @@ def test_a_turn_the_map_does_not_connect_is_followed_within_two_fixes(tmp_path, 
             after.append(p)
     assert all(p.edge_id in crossing and p.status == "confident" for p in after[2:]), after
     assert pos.stats["relocated"] >= 1
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    frm_edge=st.integers(min_value=0, max_value=10**6),
+    to_edge=st.integers(min_value=0, max_value=10**6),
+    frm_at=st.floats(min_value=0.0, max_value=1.0),
+    to_at=st.floats(min_value=0.0, max_value=1.0),
+    direction=st.sampled_from([1, -1]),
+)
+def test_a_step_back_is_never_shorter_than_the_track_allows(
+    frm_edge, to_edge, frm_at, to_at, direction
+):
+    # the steps back that cross only unbranched nodes are a subset of all physical steps
+    # back: never shorter than the shortest one, and onto the track a hypothesis came by
+    # exactly that one
+    from antikol.positioning.reach import ReachTable, state_id
+
+    net = trackmap.load_default()
+    table = ReachTable.for_map(net, reach_m=400.0)
+    e1, e2 = frm_edge % len(net.edges), to_edge % len(net.edges)
+    frm = np.array([state_id(e1, direction)])
+    to = np.array([state_id(e2, direction)])
+    o1 = np.array([frm_at * net.edge_length(e1)])
+    o2 = np.array([to_at * net.edge_length(e2)])
+    anywhere = float(table.ahead(frm ^ 1, o1, to ^ 1, o2)[0])  # every physical step back
+    plain = float(table.behind(frm, o1, to, o2)[0])
+    assert plain >= anywhere - 1e-6
+    homeward = float(table.signed_distance(frm, o1, to, o2, came_from=to, expected_m=-1e9)[0])
+    if np.isfinite(anywhere):
+        assert homeward == pytest.approx(-(plain if np.isfinite(plain) else anywhere))
