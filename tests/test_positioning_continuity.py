@@ -438,9 +438,22 @@ def test_a_step_back_is_never_shorter_than_the_track_allows(
 
     net = trackmap.load_default()
     table = ReachTable.for_map(net, reach_m=400.0)
-    e1, e2 = frm_edge % len(net.edges), to_edge % len(net.edges)
+    e1 = frm_edge % len(net.edges)
+    # the other place: on the same edge, or on one of the tracks behind it (where a step
+    # back may cross a switch), or anywhere
+    behind = [
+        (s.edge_id, -int(s.direction))
+        for s in net.successors(e1, -direction, respect_direction=False)
+    ]
+    pick = to_edge % 4
+    if pick == 0:
+        e2, d2 = e1, direction
+    elif behind and pick < 3:
+        e2, d2 = behind[pick % len(behind)]
+    else:
+        e2, d2 = to_edge % len(net.edges), direction
     frm = np.array([state_id(e1, direction)])
-    to = np.array([state_id(e2, direction)])
+    to = np.array([state_id(e2, d2)])
     o1 = np.array([frm_at * net.edge_length(e1)])
     o2 = np.array([to_at * net.edge_length(e2)])
     anywhere = float(table.ahead(frm ^ 1, o1, to ^ 1, o2)[0])  # every physical step back
