@@ -10,10 +10,17 @@ almost all of it spent finding nothing to free: the cycle's objects are freed by
 reference counting when the next cycle replaces them.
 
 :func:`gc_paused` holds the collector off for the duration of a call and restores it
-afterwards (whatever the call raises); allocations are still counted, so the collector
-runs once when the call returns (the young generations only, as the collector itself
-would at that point), rather than a hundred times during it. Nested calls leave the
-collector to the outermost one. Reference cycles are still collected, only later.
+afterwards (whatever the call raises). Nested calls leave the collector to the outermost
+one. When the call has allocated more than the collector's first threshold, what it
+built is *promoted* to the oldest generation without a scan (``gc.freeze()`` then
+``gc.unfreeze()``, which only moves the collector's lists): scanning the young objects
+once more when the call returns still cost some 50 ms of a 440 ms cycle of 1000 trams,
+again to find nothing. What the caller built since the previous call is promoted with it,
+so a reference cycle of the caller's is found later, by a full collection, not lost: a
+full collection runs instead of a promotion once the objects promoted since the last one
+reach a quarter of the objects alive after it (the collector's own rule for its full
+collections). A caller that froze objects itself (``gc.get_freeze_count() > 0``) keeps
+them frozen: then the young generations are collected as the collector would.
 
 >>> import gc
 >>> @gc_paused
@@ -28,12 +35,30 @@ from __future__ import annotations
 import functools
 import gc
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import ParamSpec, TypeVar
 
 __all__ = ["gc_paused"]
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
+
+#: A full collection once the objects promoted since the last one reach this share of the
+#: objects alive after it (CPython's ``long_lived_pending > long_lived_total / 4``).
+FULL_COLLECTION_SHARE = 0.25
+
+
+@dataclass(slots=True)
+class _Promotions:
+    """Objects promoted without a scan since the last full collection, and the number of
+    objects alive after it (None: no full collection yet)."""
+
+    promoted: int = 0
+    alive_after_full: int | None = None
+    full_collections: int = 0
+
+
+_promotions = _Promotions()
 
 
 def gc_paused(func: Callable[_P, _R]) -> Callable[_P, _R]:
@@ -58,12 +83,31 @@ def gc_paused(func: Callable[_P, _R]) -> Callable[_P, _R]:
 
 
 def _catch_up() -> None:
-    """Run the young collections the paused allocations asked for, once, now: the cost
-    stays with the call that caused it (not with whatever code allocates next)."""
+    """Settle the paused allocations once, now: the cost stays with the call that caused
+    it (not with whatever code allocates next)."""
     counts, thresholds = gc.get_count(), gc.get_threshold()
-    if thresholds[0] <= 0:  # the collector is switched off by its thresholds
+    if thresholds[0] <= 0 or counts[0] <= thresholds[0]:
+        return  # switched off by its thresholds, or too few allocations to matter
+    if gc.get_freeze_count() > 0:  # the caller's frozen objects must stay frozen
+        _collect_young(counts, thresholds)
         return
+    state = _promotions
+    if (
+        state.alive_after_full is None
+        or state.promoted >= FULL_COLLECTION_SHARE * state.alive_after_full
+    ):
+        gc.collect()
+        state.promoted, state.alive_after_full = 0, len(gc.get_objects())
+        state.full_collections += 1
+        return
+    state.promoted += counts[0]
+    gc.freeze()
+    gc.unfreeze()
+
+
+def _collect_young(counts: tuple[int, int, int], thresholds: tuple[int, int, int]) -> None:
+    """The young collections the paused allocations asked for, as the collector would."""
     if len(counts) > 1 and thresholds[1] > 0 and counts[1] >= thresholds[1]:
         gc.collect(1)
-    elif counts[0] > thresholds[0]:
+    else:
         gc.collect(0)

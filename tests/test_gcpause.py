@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import weakref
 
 import pytest
 
@@ -74,3 +75,45 @@ def test_the_young_collection_runs_when_the_call_returns() -> None:
     kept = allocate()
     assert gc.get_count()[0] < gc.get_threshold()[0]
     assert len(kept) == 5 * gc.get_threshold()[0]
+
+
+class _Node:
+    """A caller's object that can sit in a reference cycle (weak-referenceable)."""
+
+    def __init__(self) -> None:
+        self.other: _Node | None = None
+
+
+@gc_paused
+def _allocate_some() -> list[list[int]]:
+    return [[k] for k in range(3 * gc.get_threshold()[0])]
+
+
+def test_a_callers_reference_cycle_is_still_collected() -> None:
+    # the paused calls promote what the caller built without a scan; its garbage cycles
+    # must be found by the full collection that the promotions lead to, not kept forever
+    _allocate_some()  # the first settling of a process is a full collection: not this one
+    a, b = _Node(), _Node()
+    a.other, b.other = b, a
+    probe = weakref.ref(a)
+    del a, b
+    calls = 0
+    while probe() is not None and calls < 10_000:
+        _allocate_some()
+        calls += 1
+    assert probe() is None
+
+
+def test_the_callers_frozen_objects_stay_frozen() -> None:
+    gc.collect()
+    kept = [[k] for k in range(10)]
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        assert frozen > 0
+        for _ in range(3):
+            _allocate_some()
+        assert gc.get_freeze_count() == frozen
+    finally:
+        gc.unfreeze()
+    assert len(kept) == 10
