@@ -33,7 +33,14 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.analysis.conflicts import Finding, RuleSettings
-from antikol.analysis.runs import expand_rows, first_worst, group_of, max_of_runs, run_starts
+from antikol.analysis.runs import (
+    expand_rows,
+    first_worst,
+    group_of,
+    max_of_runs,
+    order_by,
+    run_starts,
+)
 from antikol.analysis.views import CycleViews, VehicleView
 from antikol.kinds import LEVELS, Level, ThreatKind
 from trackmap import Path, TrackMap
@@ -422,7 +429,11 @@ class PairEvaluator:
         l_row, s_row = expand_rows(np.arange(len(link["app"])), lo, hi, order)
         l_path = link["path"][l_row]
         s_hyp = s_g[s_row]
-        sort = np.lexsort((l_row, s_hyp, l_path))
+        sort = order_by(
+            [l_path, s_hyp, l_row],
+            [len(flat.paths), len(flat.hyp["veh"]), len(link["app"])],
+            unique=True,  # one row per link and summary row
+        )
         l_path, s_hyp, s_row = l_path[sort], s_hyp[sort], s_row[sort]
         groups = run_starts(l_path, s_hyp)
         per_path = _combine(found, summary, s_row, groups)
@@ -449,7 +460,9 @@ class PairEvaluator:
         s, g, h, off = s[keep], g[keep], h[keep], off[keep]
         p = step["path"][s]
         # the first step of each path on the other's edge (path order)
-        sort = np.lexsort((s, g, p))
+        sort = order_by(
+            [p, g, s], [len(flat.paths), len(hyp["veh"]), len(step["path"])], unique=True
+        )
         s, g, h, p, off = s[sort], g[sort], h[sort], p[sort], off[sort]
         first = run_starts(p, g)
         s, g, h, p, off = s[first], g[first], h[first], p[first], off[first]
@@ -561,7 +574,9 @@ class PairEvaluator:
         summary = _Summaries(*(np.concatenate([getattr(x, f) for x in parts]) for f in _FIELDS))
         h = flat.path["hyp"][path]
         own, other = flat.hyp["veh"][h], flat.hyp["veh"][g]
-        sort = np.lexsort((path, g, h, other, own))
+        n_veh, n_path = len(flat.views), len(flat.paths)
+        # (path, g) is unique: a pair located on a path is not also judged at its conflicts
+        sort = order_by([own, other, h, g, path], [n_veh, n_veh, n_hyp, n_hyp, n_path], unique=True)
         path, g, h, own, other = path[sort], g[sort], h[sort], own[sort], other[sort]
         summary = _pick(summary, sort)
         if len(path) == 0:

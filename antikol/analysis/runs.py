@@ -15,10 +15,12 @@ scalar rules do, row by row (the first of equals wins).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["expand_rows", "first_worst", "group_of", "max_of_runs", "run_starts"]
+__all__ = ["expand_rows", "first_worst", "group_of", "max_of_runs", "order_by", "run_starts"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -36,6 +38,29 @@ def expand_rows(
     rep = np.repeat(rows, counts)
     first = np.repeat(lo - np.cumsum(counts) + counts, counts)
     return rep, targets[first + np.arange(total)]
+
+
+def order_by(keys: Sequence[IntArray], sizes: Sequence[int], *, unique: bool = False) -> IntArray:
+    """The stable permutation that sorts rows by ``keys``, the first the most significant
+    (:func:`numpy.lexsort` with the keys in reverse order).
+
+    Each key holds integers in ``[0, size)``. When the sizes multiply to less than 2**62
+    the keys are folded into one integer and sorted once (several times cheaper than
+    sorting key by key); the permutation is the same either way. ``unique``: no two rows
+    have the same keys, so an unstable sort (cheaper still) gives that permutation too.
+
+    >>> order_by([np.array([1, 0, 1, 0]), np.array([0, 2, 0, 1])], [2, 3]).tolist()
+    [3, 1, 0, 2]
+    """
+    span = 1
+    for size in sizes:
+        span *= max(int(size), 1)
+    if span >= 2**62:
+        return np.lexsort(tuple(reversed(keys)))
+    folded = np.zeros(len(keys[0]), dtype=np.int64)
+    for key, size in zip(keys, sizes, strict=True):
+        folded = folded * max(int(size), 1) + key
+    return np.argsort(folded) if unique else np.argsort(folded, kind="stable")
 
 
 def run_starts(*keys: IntArray) -> IntArray:

@@ -1,0 +1,62 @@
+"""The run reductions of the vectorised pair evaluation against plain Python."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from antikol.analysis.runs import expand_rows, first_worst, order_by, run_starts
+
+
+@st.composite
+def _keys(draw: st.DrawFn) -> tuple[list[np.ndarray], list[int]]:
+    n = draw(st.integers(0, 40))
+    sizes = draw(st.lists(st.integers(1, 6), min_size=1, max_size=4))
+    keys = [np.array(draw(st.lists(st.integers(0, s - 1), min_size=n, max_size=n))) for s in sizes]
+    return keys, sizes
+
+
+@given(_keys())
+def test_order_by_is_the_stable_lexicographic_order(drawn) -> None:
+    keys, sizes = drawn
+    n = len(keys[0])
+    expected = sorted(range(n), key=lambda i: tuple(int(k[i]) for k in keys))  # stable
+    assert order_by(keys, sizes).tolist() == expected
+    # sizes too large to fold into one integer: the key-by-key sort, same order
+    assert order_by(keys, [2**40] * len(sizes)).tolist() == expected
+
+
+@given(_keys())
+def test_order_by_unique_keys_sorts_as_the_stable_order(drawn) -> None:
+    keys, sizes = drawn
+    n = len(keys[0])
+    row = np.arange(n)
+    expected = sorted(range(n), key=lambda i: tuple(int(k[i]) for k in keys))
+    assert order_by([*keys, row], [*sizes, max(n, 1)], unique=True).tolist() == expected
+
+
+@given(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 3)), max_size=30))
+def test_run_starts_and_first_worst_against_a_loop(rows) -> None:
+    rows = sorted(rows, key=lambda r: r[0])
+    group = np.array([r[0] for r in rows], dtype=np.int64)
+    rank = np.array([r[1] for r in rows], dtype=np.int64)
+    margin = np.array([float((7 * k) % 3) for k in range(len(rows))])
+    starts = run_starts(group)
+    assert starts.tolist() == [k for k in range(len(rows)) if k == 0 or group[k] != group[k - 1]]
+    eligible = rank != 2
+    got = first_worst(np.arange(len(rows)), rank, margin, starts, eligible)
+    bounds = [*starts.tolist(), len(rows)]
+    for g, (lo, hi) in enumerate(itertools.pairwise(bounds)):
+        pool = [k for k in range(lo, hi) if eligible[k]]
+        want = min(pool, key=lambda k: (-rank[k], margin[k], k)) if pool else -1
+        assert got[g] == want
+
+
+def test_expand_rows_pairs_each_row_with_its_targets() -> None:
+    rows, targets = expand_rows(
+        np.array([5, 6, 7]), np.array([0, 1, 1]), np.array([1, 3, 1]), np.array([10, 11, 12])
+    )
+    assert list(zip(rows.tolist(), targets.tolist(), strict=True)) == [(5, 10), (6, 11), (6, 12)]
