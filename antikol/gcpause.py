@@ -17,10 +17,12 @@ built is *promoted* to the oldest generation without a scan (``gc.freeze()`` the
 once more when the call returns still cost some 50 ms of a 440 ms cycle of 1000 trams,
 again to find nothing. What the caller built since the previous call is promoted with it,
 so a reference cycle of the caller's is found later, by a full collection, not lost: a
-full collection runs instead of a promotion once the objects promoted since the last one
-reach a quarter of the objects alive after it (the collector's own rule for its full
-collections). A caller that froze objects itself (``gc.get_freeze_count() > 0``) keeps
-them frozen: then the young generations are collected as the collector would.
+full collection runs instead of a promotion once the memory blocks in use
+(:func:`sys.getallocatedblocks`) have grown by a quarter since the last one (the share of
+the collector's own rule for its full collections). Counting the promoted objects instead
+ran a full collection every few cycles, since most of them die in the next cycle. A
+caller that froze objects itself (``gc.get_freeze_count() > 0``), or an interpreter
+without the block count, gets the young collections the collector would have run.
 
 >>> import gc
 >>> @gc_paused
@@ -34,6 +36,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ParamSpec, TypeVar
@@ -43,18 +46,18 @@ __all__ = ["gc_paused"]
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
 
-#: A full collection once the objects promoted since the last one reach this share of the
-#: objects alive after it (CPython's ``long_lived_pending > long_lived_total / 4``).
+#: A full collection once the memory blocks in use have grown by this share since the
+#: last one (CPython's ``long_lived_pending > long_lived_total / 4``).
 FULL_COLLECTION_SHARE = 0.25
 
 
 @dataclass(slots=True)
 class _Promotions:
-    """Objects promoted without a scan since the last full collection, and the number of
-    objects alive after it (None: no full collection yet)."""
+    """Memory blocks in use after the last full collection (None: none yet), and the
+    promotions and full collections so far."""
 
-    promoted: int = 0
-    alive_after_full: int | None = None
+    blocks_after_full: int | None = None
+    promotions: int = 0
     full_collections: int = 0
 
 
@@ -88,19 +91,18 @@ def _catch_up() -> None:
     counts, thresholds = gc.get_count(), gc.get_threshold()
     if thresholds[0] <= 0 or counts[0] <= thresholds[0]:
         return  # switched off by its thresholds, or too few allocations to matter
-    if gc.get_freeze_count() > 0:  # the caller's frozen objects must stay frozen
+    blocks = sys.getallocatedblocks()
+    if gc.get_freeze_count() > 0 or blocks <= 0:  # the caller froze objects / no count
         _collect_young(counts, thresholds)
         return
     state = _promotions
-    if (
-        state.alive_after_full is None
-        or state.promoted >= FULL_COLLECTION_SHARE * state.alive_after_full
-    ):
+    last = state.blocks_after_full
+    if last is None or blocks - last >= FULL_COLLECTION_SHARE * last:
         gc.collect()
-        state.promoted, state.alive_after_full = 0, len(gc.get_objects())
+        state.blocks_after_full = sys.getallocatedblocks()
         state.full_collections += 1
         return
-    state.promoted += counts[0]
+    state.promotions += 1
     gc.freeze()
     gc.unfreeze()
 

@@ -89,16 +89,27 @@ def _allocate_some() -> list[list[int]]:
     return [[k] for k in range(3 * gc.get_threshold()[0])]
 
 
-def test_a_callers_reference_cycle_is_still_collected() -> None:
-    # the paused calls promote what the caller built without a scan; its garbage cycles
-    # must be found by the full collection that the promotions lead to, not kept forever
+def _garbage_cycles(n: int) -> _Node:
+    """``n`` pairs of objects referring to each other, dropped: garbage only the cyclic
+    collector frees. Returns the first (the caller keeps a weak reference)."""
+    first = None
+    for _ in range(n):
+        a, b = _Node(), _Node()
+        a.other, b.other = b, a
+        first = first or a
+    assert first is not None
+    return first
+
+
+def test_a_callers_reference_cycles_are_still_collected() -> None:
+    # the paused calls promote what the caller built without a scan; the garbage cycles
+    # the caller keeps making must be found by the full collections that the growing
+    # memory leads to, not kept forever
     _allocate_some()  # the first settling of a process is a full collection: not this one
-    a, b = _Node(), _Node()
-    a.other, b.other = b, a
-    probe = weakref.ref(a)
-    del a, b
+    probe = weakref.ref(_garbage_cycles(1000))
     calls = 0
-    while probe() is not None and calls < 10_000:
+    while probe() is not None and calls < 5_000:
+        _garbage_cycles(1000)
         _allocate_some()
         calls += 1
     assert probe() is None
