@@ -53,12 +53,9 @@ FULL_COLLECTION_SHARE = 0.25
 
 @dataclass(slots=True)
 class _Promotions:
-    """Memory blocks in use after the last full collection (None: none yet), and the
-    promotions and full collections so far."""
+    """Memory blocks in use after the last full collection (None: none yet)."""
 
     blocks_after_full: int | None = None
-    promotions: int = 0
-    full_collections: int = 0
 
 
 _promotions = _Promotions()
@@ -93,23 +90,22 @@ def _catch_up() -> None:
         return  # switched off by its thresholds, or too few allocations to matter
     blocks = sys.getallocatedblocks()
     if gc.get_freeze_count() > 0 or blocks <= 0:  # the caller froze objects / no count
-        _collect_young(counts, thresholds)
+        _collect_young(counts[1], thresholds[1])
         return
     state = _promotions
     last = state.blocks_after_full
     if last is None or blocks - last >= FULL_COLLECTION_SHARE * last:
         gc.collect()
         state.blocks_after_full = sys.getallocatedblocks()
-        state.full_collections += 1
         return
-    state.promotions += 1
     gc.freeze()
     gc.unfreeze()
 
 
-def _collect_young(counts: tuple[int, int, int], thresholds: tuple[int, int, int]) -> None:
-    """The young collections the paused allocations asked for, as the collector would."""
-    if len(counts) > 1 and thresholds[1] > 0 and counts[1] >= thresholds[1]:
+def _collect_young(young_collections: int, threshold: int) -> None:
+    """The young collections the paused allocations asked for, as the collector would:
+    the middle generation too once ``threshold`` youngest ones have run since its last."""
+    if threshold > 0 and young_collections >= threshold:
         gc.collect(1)
     else:
         gc.collect(0)
