@@ -29,6 +29,7 @@ from trackmap import mapfile, routing
 from trackmap.crs import LocalFrame
 from trackmap.errors import UnknownEdgeError
 from trackmap.kinds import ConflictKind, NodeClass
+from trackmap.linear import PackedLines
 from trackmap.model import (
     Candidate,
     CandidateBatch,
@@ -99,6 +100,9 @@ class TrackMap:
         self._geoms = np.array([e.geometry for e in self.edges], dtype=object)
         self._lengths = shapely.length(self._geoms).astype(float)
         self._tree = shapely.STRtree(self._geoms)
+        #: The edges' vertices in flat arrays: points along many edges without a shapely
+        #: object per point (the numbers of GEOS, see :mod:`trackmap.linear`).
+        self._lines = PackedLines(self._geoms)
         mid = shapely.line_interpolate_point(self._geoms, 0.5, normalized=True)
         self._convergence = self.frame.grid_north_azimuth_deg(
             shapely.get_x(mid), shapely.get_y(mid)
@@ -297,13 +301,14 @@ class TrackMap:
         qpts = pts[p_idx]
         offset = shapely.line_locate_point(geoms, qpts)
         length = self._lengths[e_idx]
-        proj = shapely.line_interpolate_point(geoms, offset)
-        ahead = shapely.line_interpolate_point(geoms, np.minimum(offset + 0.5, length))
-        behind = shapely.line_interpolate_point(geoms, np.maximum(offset - 0.5, 0.0))
-        tx = shapely.get_x(ahead) - shapely.get_x(behind)
-        ty = shapely.get_y(ahead) - shapely.get_y(behind)
-        dx = x[p_idx] - shapely.get_x(proj)
-        dy = y[p_idx] - shapely.get_y(proj)
+        lines = self._lines
+        proj_x, proj_y = lines.interpolate(e_idx, offset)
+        ahead_x, ahead_y = lines.interpolate(e_idx, np.minimum(offset + 0.5, length))
+        behind_x, behind_y = lines.interpolate(e_idx, np.maximum(offset - 0.5, 0.0))
+        tx = ahead_x - behind_x
+        ty = ahead_y - behind_y
+        dx = x[p_idx] - proj_x
+        dy = y[p_idx] - proj_y
         tn = np.hypot(tx, ty)
         tn[tn == 0] = 1.0
         lateral = (tx * dy - ty * dx) / tn
@@ -327,9 +332,7 @@ class TrackMap:
         self, edge_ids: npt.ArrayLike, offsets_m: npt.ArrayLike
     ) -> tuple[FloatArray, FloatArray]:
         """Vectorised :meth:`point_at`: local (x, y) arrays, metres."""
-        idx = np.asarray(edge_ids, dtype=np.int64)
-        pts = shapely.line_interpolate_point(self._geoms[idx], np.asarray(offsets_m, dtype=float))
-        return shapely.get_x(pts), shapely.get_y(pts)
+        return self._lines.interpolate(edge_ids, offsets_m)
 
     def headings_at(
         self, edge_ids: npt.ArrayLike, offsets_m: npt.ArrayLike, directions: npt.ArrayLike
@@ -338,11 +341,10 @@ class TrackMap:
         numbers, to the last bit, as one call per position)."""
         idx = np.asarray(edge_ids, dtype=np.int64)
         off = np.asarray(offsets_m, dtype=float)
-        geoms = self._geoms[idx]
-        behind = shapely.line_interpolate_point(geoms, np.maximum(off - 0.5, 0.0))
-        ahead = shapely.line_interpolate_point(geoms, np.minimum(off + 0.5, self._lengths[idx]))
-        dx = shapely.get_x(ahead) - shapely.get_x(behind)
-        dy = shapely.get_y(ahead) - shapely.get_y(behind)
+        behind_x, behind_y = self._lines.interpolate(idx, np.maximum(off - 0.5, 0.0))
+        ahead_x, ahead_y = self._lines.interpolate(idx, np.minimum(off + 0.5, self._lengths[idx]))
+        dx = ahead_x - behind_x
+        dy = ahead_y - behind_y
         # math.atan2 per element: numpy's SIMD arctan2 differs from the C library's in the
         # last bit for about 7 % of arguments, and heading_at uses the latter
         angle = np.fromiter(map(math.atan2, dx.tolist(), dy.tolist()), dtype=float, count=len(dx))

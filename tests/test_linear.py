@@ -1,0 +1,114 @@
+"""trackmap.linear: points along many lines, the same numbers as shapely (GEOS)."""
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import trackmap
+from trackmap.linear import PackedLines
+
+coordinate = st.floats(-5000.0, 5000.0, allow_nan=False, allow_infinity=False)
+vertex = st.tuples(coordinate, coordinate)
+
+
+@st.composite
+def lines_and_queries(draw):
+    lines = []
+    for _ in range(draw(st.integers(1, 4))):
+        pts = draw(st.lists(vertex, min_size=2, max_size=8))
+        # repeated vertices (zero-length segments) occur in real map data
+        repeats = draw(st.lists(st.integers(0, len(pts) - 1), max_size=3))
+        for k in sorted(repeats, reverse=True):
+            pts.insert(k, pts[k])
+        lines.append(shapely.LineString(pts))
+    packed = PackedLines(lines)
+    ids, distances = [], []
+    for _ in range(draw(st.integers(1, 12))):
+        i = draw(st.integers(0, len(lines) - 1))
+        length = float(shapely.length(lines[i]))
+        cums = packed._cum_after[packed._first[i] : packed._last_segment[i] + 1].tolist()
+        # exactly at a vertex, and one ulp either side: where rounding decides
+        at_vertex = st.tuples(st.sampled_from(cums), st.sampled_from([-np.inf, 0, np.inf])).map(
+            lambda cs: cs[0] if cs[1] == 0 else float(np.nextafter(*cs))
+        )
+        d = draw(
+            st.one_of(
+                st.floats(-1.2 * length - 1, 1.2 * length + 1, allow_nan=False),
+                st.sampled_from([0.0, -0.0, length, -length, np.nan, np.inf, -np.inf]),
+                at_vertex,
+            )
+        )
+        ids.append(i)
+        distances.append(d)
+    return lines, packed, ids, distances
+
+
+def same_bits(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return (
+        a.shape == b.shape
+        and ((a.view(np.int64) == b.view(np.int64)) | (np.isnan(a) & np.isnan(b))).all()
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(lines_and_queries())
+def test_interpolate_is_shapely_to_the_last_bit(case):
+    lines, packed, ids, distances = case
+    x, y = packed.interpolate(ids, distances)
+    pts = shapely.line_interpolate_point(np.array(lines, dtype=object)[ids], distances)
+    assert same_bits(x, shapely.get_x(pts))
+    assert same_bits(y, shapely.get_y(pts))
+
+
+def test_lengths_are_shapely_lengths():
+    net = trackmap.load_default()
+    geoms = np.array([e.geometry for e in net.edges], dtype=object)
+    assert same_bits(PackedLines(geoms).lengths_m, shapely.length(geoms))
+
+
+def test_every_edge_of_the_embedded_map_to_the_last_bit():
+    net = trackmap.load_default()
+    geoms = np.array([e.geometry for e in net.edges], dtype=object)
+    packed = PackedLines(geoms)
+    rng = np.random.default_rng(5)
+    ids = rng.integers(0, len(geoms), 50_000)
+    distances = rng.uniform(-0.05, 1.05, ids.size) * shapely.length(geoms)[ids]
+    x, y = packed.interpolate(ids, distances)
+    pts = shapely.line_interpolate_point(geoms[ids], distances)
+    assert same_bits(x, shapely.get_x(pts)) and same_bits(y, shapely.get_y(pts))
+    # and the map's own array queries, which use it, agree with its scalar ones
+    px, py = net.points_at(ids[:200], distances[:200])
+    for i, d, a, b in zip(ids[:200], distances[:200], px, py, strict=True):
+        assert (a, b) == net.point_at(int(i), float(d))
+
+
+def test_broadcasting_and_shape():
+    packed = PackedLines([shapely.LineString([(0, 0), (10, 0)])])
+    x, y = packed.interpolate(0, [[1.0, 2.0], [3.0, 4.0]])
+    assert x.shape == (2, 2) and x.tolist() == [[1.0, 2.0], [3.0, 4.0]]
+    assert y.tolist() == [[0.0, 0.0], [0.0, 0.0]]
+    empty_x, empty_y = packed.interpolate([], [])
+    assert empty_x.shape == empty_y.shape == (0,)
+
+
+@pytest.mark.parametrize(
+    ("geometry", "message"),
+    [
+        (shapely.Point(0, 0), "line 0 is not a LineString"),
+        (shapely.LineString(), "line 0 has fewer than two vertices"),
+    ],
+)
+def test_what_is_not_a_line_is_refused(geometry, message):
+    with pytest.raises(ValueError, match=message):
+        PackedLines([geometry])
+
+
+def test_a_line_index_out_of_range_is_an_index_error():
+    packed = PackedLines([shapely.LineString([(0, 0), (10, 0)])])
+    with pytest.raises(IndexError, match="out of range"):
+        packed.interpolate([1], [0.0])
+    with pytest.raises(IndexError, match="out of range"):
+        packed.interpolate([-1], [0.0])
