@@ -130,29 +130,30 @@ def hypotheses_of(
         scalar function, so that one vehicle at a time gives the same numbers).
     """
     ok = allowed.tolist()
-    return [
-        tuple(
-            Hypothesis(
-                edge_id=s >> 1,
-                direction=1 - 2 * (s & 1),
-                offset_m=o,
-                probability=math.exp(p),
-                progress_m=g,
-                wrong_way=not ok[s],
-                wrong_way_s=w,
-            )
-            for s, o, p, g, w in zip(hs, ho, hp, hg, hw, strict=True)
-            if s >= 0
-        )
-        for hs, ho, hp, hg, hw in zip(
-            states.tolist(),
-            offsets_m.tolist(),
-            log_probability.tolist(),
-            progress_m.tolist(),
-            wrong_way_s.tolist(),
-            strict=True,
-        )
+    filled = states >= 0
+    # only the filled slots are read and converted (most vehicles fill one of eight)
+    counts = np.count_nonzero(filled, axis=1).tolist()
+    flat = [
+        a[filled].tolist() for a in (states, offsets_m, log_probability, progress_m, wrong_way_s)
     ]
+    hyps = [
+        Hypothesis(
+            edge_id=s >> 1,
+            direction=1 - 2 * (s & 1),
+            offset_m=o,
+            probability=math.exp(p),
+            progress_m=g,
+            wrong_way=not ok[s],
+            wrong_way_s=w,
+        )
+        for s, o, p, g, w in zip(*flat, strict=True)
+    ]
+    out: list[tuple[Hypothesis, ...]] = []
+    start = 0
+    for n in counts:
+        out.append(tuple(hyps[start : start + n]))
+        start += n
+    return out
 
 
 def unmatched_position(report: VehicleReport, t: float) -> TrackPosition:
