@@ -17,7 +17,7 @@ import shapely.ops
 
 from trackmap import TrackMap
 
-__all__ = ["Candidates", "find_candidates", "loop_edges"]
+__all__ = ["Candidates", "TurningLoop", "find_candidates", "loop_edges"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -39,21 +39,37 @@ class Candidates:
         return iter((self.point, self.edge_id, self.offset_m, self.lateral_m, self.heading_deg))
 
 
-def loop_edges(net: TrackMap, radius_m: float) -> dict[int, tuple[float, Any]]:
-    """Edges that come back near their own start (turning loops): their half-length and
-    geometry, m."""
+@dataclass(frozen=True, slots=True)
+class TurningLoop:
+    """An edge that comes back near its own start, and its two halves (local frame, m)."""
+
+    half_m: float
+    geometry: shapely.LineString
+    first_half: shapely.LineString
+    second_half: shapely.LineString
+
+
+def loop_edges(net: TrackMap, radius_m: float) -> dict[int, TurningLoop]:
+    """Edges that come back within ``2 * radius_m`` (m) of their own start (turning
+    loops), by edge id; their halves are cut once here, not per fix."""
     out = {}
     for e in net.edges:
         g = e.geometry
         start, end = g.coords[0], g.coords[-1]
         if math.dist(start, end) < 2.0 * radius_m and g.length > 6.0 * radius_m:
-            out[e.edge_id] = (g.length / 2.0, g)
+            half = g.length / 2.0
+            out[e.edge_id] = TurningLoop(
+                half,
+                g,
+                shapely.ops.substring(g, 0.0, half),
+                shapely.ops.substring(g, half, g.length),
+            )
     return out
 
 
 def find_candidates(
     net: TrackMap,
-    loops: dict[int, tuple[float, Any]],
+    loops: dict[int, TurningLoop],
     xs: FloatArray,
     ys: FloatArray,
     radius: FloatArray,
@@ -85,12 +101,15 @@ def find_candidates(
     rows: list[tuple[int, int, float, float, float]] = []
     for k in extra:
         e = int(found.edge_id[k])
-        half, geom = loops[e]
+        loop = loops[e]
+        geom = loop.geometry
         i = int(found.point[k])
         pt_geom = shapely.Point(xs[i], ys[i])
-        other = (half, geom.length) if found.offset_m[k] < half else (0.0, half)
-        part = shapely.ops.substring(geom, *other)
-        off = other[0] + float(part.project(pt_geom))
+        if found.offset_m[k] < loop.half_m:
+            start_m, part = loop.half_m, loop.second_half
+        else:
+            start_m, part = 0.0, loop.first_half
+        off = start_m + float(part.project(pt_geom))
         p = geom.interpolate(off)
         dist = float(p.distance(pt_geom))
         if dist > radius[i] or abs(off - found.offset_m[k]) < 2.0 * radius[i]:
