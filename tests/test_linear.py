@@ -57,7 +57,7 @@ def same_bits(a, b):
 @given(lines_and_queries())
 def test_interpolate_is_shapely_to_the_last_bit(case):
     lines, packed, ids, distances = case
-    x, y = packed.interpolate(ids, distances)
+    x, y = packed.interpolate(ids, distances, search_from=0)
     pts = shapely.line_interpolate_point(np.array(lines, dtype=object)[ids], distances)
     assert same_bits(x, shapely.get_x(pts))
     assert same_bits(y, shapely.get_y(pts))
@@ -87,11 +87,12 @@ def test_every_edge_of_the_embedded_map_to_the_last_bit():
 
 def test_broadcasting_and_shape():
     packed = PackedLines([shapely.LineString([(0, 0), (10, 0)])])
-    x, y = packed.interpolate(0, [[1.0, 2.0], [3.0, 4.0]])
-    assert x.shape == (2, 2) and x.tolist() == [[1.0, 2.0], [3.0, 4.0]]
-    assert y.tolist() == [[0.0, 0.0], [0.0, 0.0]]
-    empty_x, empty_y = packed.interpolate([], [])
-    assert empty_x.shape == empty_y.shape == (0,)
+    for search_from in (0, 1000):  # the array search and shapely
+        x, y = packed.interpolate(0, [[1.0, 2.0], [3.0, 4.0]], search_from=search_from)
+        assert x.shape == (2, 2) and x.tolist() == [[1.0, 2.0], [3.0, 4.0]]
+        assert y.tolist() == [[0.0, 0.0], [0.0, 0.0]]
+        empty_x, empty_y = packed.interpolate([], [], search_from=search_from)
+        assert empty_x.shape == empty_y.shape == (0,)
 
 
 @pytest.mark.parametrize(
@@ -108,7 +109,8 @@ def test_what_is_not_a_line_is_refused(geometry, message):
 
 def test_a_line_index_out_of_range_is_an_index_error():
     packed = PackedLines([shapely.LineString([(0, 0), (10, 0)])])
-    with pytest.raises(IndexError, match="out of range"):
-        packed.interpolate([1], [0.0])
-    with pytest.raises(IndexError, match="out of range"):
-        packed.interpolate([-1], [0.0])
+    for search_from in (0, 1000):
+        with pytest.raises(IndexError, match="out of range"):
+            packed.interpolate([1], [0.0], search_from=search_from)
+        with pytest.raises(IndexError, match="out of range"):
+            packed.interpolate([-1], [0.0], search_from=search_from)

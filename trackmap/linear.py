@@ -36,6 +36,10 @@ import shapely
 
 __all__ = ["PackedLines"]
 
+#: Below this many queries one shapely call costs less than the array search (its cost is
+#: mostly per call); the numbers are the same either way.
+ARRAY_SEARCH_FROM = 160
+
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
@@ -55,7 +59,16 @@ class PackedLines:
         A geometry is not a line string of at least two vertices.
     """
 
-    __slots__ = ("_cum_after", "_first", "_last_segment", "_length", "_segment", "_x", "_y")
+    __slots__ = (
+        "_cum_after",
+        "_first",
+        "_geoms",
+        "_last_segment",
+        "_length",
+        "_segment",
+        "_x",
+        "_y",
+    )
 
     def __init__(self, lines: Sequence[shapely.LineString] | npt.NDArray[np.object_]) -> None:
         geoms = np.asarray(lines, dtype=object)
@@ -69,6 +82,7 @@ class PackedLines:
         short = np.flatnonzero(counts < 2)
         if short.size:
             raise ValueError(f"line {int(short[0])} has fewer than two vertices")
+        self._geoms = geoms
         xy = shapely.get_coordinates(geoms)
         self._x: FloatArray = np.ascontiguousarray(xy[:, 0], dtype=float)
         self._y: FloatArray = np.ascontiguousarray(xy[:, 1], dtype=float)
@@ -104,7 +118,11 @@ class PackedLines:
         return self._length.copy()
 
     def interpolate(
-        self, line_ids: npt.ArrayLike, distances_m: npt.ArrayLike
+        self,
+        line_ids: npt.ArrayLike,
+        distances_m: npt.ArrayLike,
+        *,
+        search_from: int = ARRAY_SEARCH_FROM,
     ) -> tuple[FloatArray, FloatArray]:
         """The points at distances along lines, as :func:`shapely.line_interpolate_point`.
 
@@ -114,6 +132,9 @@ class PackedLines:
             Index of the line of each query.
         distances_m : array_like of float
             Distance from each line's first vertex, m (negative: back from its end).
+        search_from : int
+            Fewer queries than this go to shapely in one call, more to the array search
+            (the same numbers either way).
 
         Returns
         -------
@@ -134,6 +155,15 @@ class PackedLines:
         n_lines = len(self._first)
         if ids.size and (ids.min() < 0 or ids.max() >= n_lines):
             raise IndexError(f"line index out of range 0..{n_lines - 1}")
+        if ids.size < search_from:
+            pts = shapely.line_interpolate_point(self._geoms[ids], dist)
+            return shapely.get_x(pts).reshape(shape), shapely.get_y(pts).reshape(shape)
+        return self._search(ids, dist, shape)
+
+    def _search(
+        self, ids: IntArray, dist: FloatArray, shape: tuple[int, ...]
+    ) -> tuple[FloatArray, FloatArray]:
+        """:meth:`interpolate` by a binary search over the running lengths (flat queries)."""
         length = self._length[ids]
         forward = np.where(dist < 0.0, length + dist, dist)
         lo = self._first[ids]
