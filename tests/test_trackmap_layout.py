@@ -21,6 +21,7 @@ QUERY_SIDE = (
     "trackmap.crs",
     "trackmap.defaults",
     "trackmap.kinds",
+    "trackmap.linear",
     "trackmap.mapfile",
     "trackmap.model",
     "trackmap.network",

@@ -3,8 +3,10 @@
 :func:`shapely.line_interpolate_point` walks each line's segments in C, but every call
 for a fleet also builds one shapely ``Point`` per result and reads its coordinates back
 (about 1 µs per point, the largest single cost of placing a thousand vehicles). A map's
-edges do not change, so their cumulative lengths can be kept once and every query
-answered by a vectorised binary search.
+edges do not change, so their cumulative lengths can be kept once and a large batch of
+queries answered by a vectorised binary search (a small one, below
+:data:`ARRAY_SEARCH_FROM`, still goes to shapely: numpy's cost per call is the larger
+there).
 
 The arithmetic is that of GEOS's linear referencing (``LengthLocationMap`` and
 ``LinearLocation``), step by step, so the results are the same numbers to the last bit
@@ -34,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-__all__ = ["PackedLines"]
+__all__ = ["ARRAY_SEARCH_FROM", "PackedLines"]
 
 #: Below this many queries one shapely call costs less than the array search (its cost is
 #: mostly per call); the numbers are the same either way.
