@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
+import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol.positioning.matcher import Positioner
+from antikol.positioning.outputs import hypotheses_of
 from antikol.sim import GpsModel, Simulator, fleet
 
 
@@ -68,3 +73,30 @@ def test_a_time_that_is_not_a_number_is_refused_by_name(city, t):
     for asked in (ids[:1], ids):  # one vehicle or many: the same answer
         with pytest.raises(InvalidArgumentError, match="t"):
             pos.positions(asked, t)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    st.lists(
+        st.lists(st.integers(-1, 9), min_size=4, max_size=4),  # -1: an empty slot
+        min_size=0,
+        max_size=6,
+    )
+)
+def test_hypotheses_of_reads_the_filled_slots_of_each_vehicle_in_order(slot_states):
+    states = np.array(slot_states, dtype=np.int64).reshape(-1, 4)
+    rng = np.random.default_rng(len(slot_states))
+    offsets, logp, progress, wrong_s = (rng.normal(size=states.shape) for _ in range(4))
+    allowed = rng.random(10) < 0.5
+    got = hypotheses_of(states, offsets, logp, progress, wrong_s, allowed)
+    assert len(got) == len(states)
+    for row, hyps in enumerate(got):
+        slots = [k for k in range(4) if states[row, k] >= 0]
+        assert [(h.edge_id, h.direction) for h in hyps] == [
+            (int(states[row, k]) >> 1, 1 - 2 * (int(states[row, k]) & 1)) for k in slots
+        ]
+        assert [h.offset_m for h in hyps] == [float(offsets[row, k]) for k in slots]
+        assert [h.probability for h in hyps] == [math.exp(logp[row, k]) for k in slots]
+        assert [h.progress_m for h in hyps] == [float(progress[row, k]) for k in slots]
+        assert [h.wrong_way_s for h in hyps] == [float(wrong_s[row, k]) for k in slots]
+        assert [h.wrong_way for h in hyps] == [not allowed[states[row, k]] for k in slots]
