@@ -52,6 +52,59 @@ def test_positions_are_those_of_one_vehicle_at_a_time(city, until_s):
     assert many.positions(ids) == [one.position(v) for v in ids]
 
 
+@pytest.fixture(scope="module", params=["white", "urban"])
+def busy_city(request):
+    net = trackmap.load_default()
+    gps = GpsModel.urban() if request.param == "urban" else GpsModel(sigma_m=3.0)
+    specs = fleet(net, 60, 3, route_length_m=1500.0, headway_s=0.0, min_separation_m=40.0)
+    result = Simulator(net, specs, gps=gps, seed=3).run(60.0)
+    return net, result.reports
+
+
+def test_a_fleet_placed_in_arrays_is_placed_as_one_vehicle_at_a_time(busy_city, monkeypatch):
+    """From ``placing.ARRAY_FROM`` vehicles on, those on their lineage's edge away from
+    switches are placed in arrays: the same records, bit for bit, as the scalar path, at
+    every cycle, at the reports' time and dead-reckoned past it (past the limit too)."""
+    from antikol.positioning import placing
+
+    net, reports = busy_city
+    scalar_calls: list[str] = []
+    real = placing.place_one
+
+    def counted(*args, **kwargs):
+        scalar_calls.append(args[4])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(placing, "place_one", counted)
+    one, many = Positioner(net), Positioner(net)
+    by_t: dict[float, list] = {}
+    for r in reports:
+        by_t.setdefault(r.t, []).append(r)
+    batches = statuses = 0
+    seen: set[str] = set()
+    for t in sorted(by_t):
+        for r in by_t[t]:  # one vehicle at a time: placed by the scalar path
+            one.update_many([r], outputs=False)
+        many.update_many(by_t[t], outputs=False)
+        ids = sorted(one.vehicles())
+        if len(ids) < placing.ARRAY_FROM:
+            continue
+        limit_s = one.config.dead_reckoning_s
+        for at in (None, t + 1.5, t + 7.0, t + limit_s - 0.5, t + limit_s + 0.5):
+            single = [one.position(v, at) for v in ids]
+            scalar_calls.clear()
+            batch = many.positions(ids, at)
+            assert batch == single, (t, at)
+            batches += 1
+            matched = sum(p is not None and p.edge_id is not None for p in batch)
+            # both paths are taken: most vehicles in arrays, some one at a time
+            assert len(scalar_calls) < matched
+            statuses += any(scalar_calls)
+            seen.update(p.status for p in batch if p is not None)
+    assert batches > 100 and statuses > 0
+    assert {"confident", "ambiguous", "lost"} <= seen
+
+
 def test_an_unmatched_vehicle_stands_where_its_fix_is(city):
     net, reports = city
     first = reports[0]

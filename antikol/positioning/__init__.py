@@ -4,8 +4,9 @@
   per hypothesis, physics checks, the reported lineage), vectorised over a fleet, with its
   parts: :mod:`~antikol.positioning.candidates` (places near each fix),
   :mod:`~antikol.positioning.scoring` (one HMM step), :mod:`~antikol.positioning.fleet`
-  (the state arrays) and :mod:`~antikol.positioning.deadreckoning` (moving along the track
-  without a fix);
+  (the state arrays), :mod:`~antikol.positioning.deadreckoning` (moving along the track
+  without a fix) and :mod:`~antikol.positioning.placing` (the reported place of each
+  vehicle, most of a fleet in arrays);
 * :mod:`antikol.positioning.reach` — along-track distances between track states;
 * :mod:`antikol.positioning.kalman` — closed-form along-track and bias filters;
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);

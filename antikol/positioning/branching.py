@@ -23,9 +23,13 @@ change does, and a share wavering around the threshold would step back and forth
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from collections.abc import Collection, Sequence
 from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
 
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
@@ -47,6 +51,8 @@ STEP_BACK_M = 10.0
 LOOKBACK_M = HOLD_M + 40.0
 
 State = tuple[int, int]
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 
 class Arrivals:
@@ -63,6 +69,11 @@ class Arrivals:
         self._skeletons: dict[State, tuple[tuple[int, float, State, bool], ...]] = {}
         self._passed: dict[State, frozenset[int]] = {}
         self._switches: dict[State, tuple[tuple[int, float, State], ...]] = {}
+        #: Length of each edge, m (``net.edge_length``, indexed by edge id).
+        self.lengths_m = np.array([net.edge_length(e.edge_id) for e in net.edges], dtype=float)
+        # metres to the nearest facing switch behind each state's entry, by state id
+        # (``2 * edge + (direction < 0)``); NaN: not looked up yet
+        self._nearest = np.full(2 * len(net.edges), np.nan)
 
     def trunk(self, node: int, edge: int, direction: int) -> tuple[int, int] | None:
         """A state arriving at ``node`` from which ``(edge, direction)`` is entered."""
@@ -134,6 +145,20 @@ class Arrivals:
             cached = tuple((n, b, s) for n, b, s, switch in self.skeleton(state) if switch)
             self._switches[state] = cached
         return cached
+
+    def nearest_switch_m(self, edges: IntArray, directions: IntArray) -> FloatArray:
+        """Metres of track between the entry of each state and the nearest facing switch
+        behind it (:meth:`switches`; ``inf`` where there is none), for arrays of edge ids
+        and directions (+1/-1)."""
+        ids = 2 * edges + (directions < 0)
+        near = self._nearest[ids]
+        missing = np.isnan(near)
+        if missing.any():
+            for i in np.unique(ids[missing]).tolist():
+                found = self.switches((i >> 1, 1 - 2 * (i & 1)))
+                self._nearest[i] = found[0][1] if found else math.inf
+            near = self._nearest[ids]
+        return near
 
     def switches_behind(self, state: State) -> frozenset[int]:
         """Nodes of the facing switches a vehicle in ``state`` came through (cached), up to

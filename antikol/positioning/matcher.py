@@ -55,9 +55,8 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.gcpause import gc_paused
-from antikol.kinds import PositionStatus
 from antikol.positioning.alongtrack import run_track_filters
-from antikol.positioning.branching import Arrivals, hold_at_switch
+from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
@@ -68,12 +67,12 @@ from antikol.positioning.fleet import (
 from antikol.positioning.kalman import track_estimate
 from antikol.positioning.lineage import plan_slots
 from antikol.positioning.outputs import (
-    Placement,
     asked_time,
     hypotheses_of,
     track_positions,
     unmatched_position,
 )
+from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
@@ -249,8 +248,8 @@ class Positioner:
         finite time, s (:class:`~antikol.errors.InvalidArgumentError` otherwise)."""
         t = asked_time(t)
         out: list[TrackPosition | None] = [None] * len(vehicle_ids)
-        placed: dict[str, tuple[Placement, list[int]]] = {}
-        asked: list[tuple[int, str, int, float]] = []
+        where: dict[str, list[int]] = {}  # a vehicle asked twice gets one placement
+        asked: list[tuple[str, int, float, tuple[int, int] | None]] = []
         for k, vid in enumerate(vehicle_ids):
             row = self._row.get(vid)
             last = None if row is None else self._f.last[row]
@@ -262,31 +261,34 @@ class Positioner:
                 out[k] = cached
             elif self._f.unmatched[row] or self._f.hs[row, 0] < 0 or math.isnan(self._f.kf.t[row]):
                 out[k] = self._cache[vid] = unmatched_position(last, when)
+            elif vid in where:
+                where[vid].append(k)
             else:
-                asked.append((k, vid, row, when))
-        if asked:
-            rows = np.array([row for _, _, row, _ in asked], dtype=np.int64)
-            when_s = np.array([when for _, _, _, when in asked], dtype=float)
-            est = track_estimate(self._f.kf, rows, when_s, self.config.accel_sigma_mps2)
-            hyps = self._hypotheses_of(rows)
-            for i, (k, vid, row, when) in enumerate(asked):
-                if vid in placed:
-                    placed[vid][1].append(k)
-                    continue
-                last_t = self._f.last[row].t  # type: ignore[union-attr]  # checked above
-                # the hold's memory: where the vehicle was placed at its report before this
-                # one (at this report's time) or at this one (later: dead reckoning)
-                basis = (self._reported_before if when == last_t else self._reported).get(vid)
-                place = self._place(
-                    vid, row, when, (est[0][i], est[1][i], est[2][i]), hyps[i], basis
-                )
-                placed[vid] = (place, [k])
-        todo = list(placed.values())
-        for (_, where), pos in zip(
-            todo, track_positions(self.net, [p for p, _ in todo]), strict=True
-        ):
+                where[vid] = [k]
+                # the hold's memory: where the vehicle was placed at its report before
+                # this one (at this report's time) or at this one (later: dead reckoning)
+                basis = (self._reported_before if when == last.t else self._reported).get(vid)
+                asked.append((vid, row, when, basis))
+        if not asked:
+            return out
+        rows = np.array([row for _, row, _, _ in asked], dtype=np.int64)
+        when_s = np.array([when for _, _, when, _ in asked], dtype=float)
+        est = track_estimate(self._f.kf, rows, when_s, self.config.accel_sigma_mps2)
+        places = place_vehicles(
+            self.net,
+            self._arrivals,
+            self._f,
+            self.config,
+            [vid for vid, _, _, _ in asked],
+            rows,
+            when_s,
+            (est[0], est[1], est[2]),
+            self._hypotheses_of(rows),
+            [basis for _, _, _, basis in asked],
+        )
+        for pos in track_positions(self.net, places):
             self._cache[pos.vehicle_id] = pos
-            for k in where:
+            for k in where[pos.vehicle_id]:
                 out[k] = pos
         return out
 
@@ -618,75 +620,6 @@ class Positioner:
         same = (hs == s0) | (np.minimum(fwd, back) <= _SAME_PLACE_M)
         same[:, 0] = True
         return np.minimum(np.sum(np.where(same & (hs >= 0), prob, 0.0), axis=1), 1.0)
-
-    def _place(
-        self,
-        vid: str,
-        row: int,
-        t: float,
-        estimate: tuple[Any, Any, Any],
-        hyps: tuple[Hypothesis, ...],
-        basis: tuple[int, int] | None,
-    ) -> Placement:
-        """Where a matched vehicle is at ``t`` from its along-track estimate (position,
-        speed, sigma: m, m/s, m), its hypotheses and where it was placed before
-        (``basis``: edge, direction)."""
-        s, v, s_std = estimate
-        c = self.config
-        last = self._f.last[row]
-        if last is None:  # pragma: no cover - positions() asks only for reported vehicles
-            raise RuntimeError(f"positioning state of {vid!r} without a report")
-        first = hyps[0]
-        moved = advance(
-            self.net,
-            first.edge_id,
-            first.offset_m,
-            first.direction,
-            float(s) - self._f.z[row],
-            last,
-            wrong=first.wrong_way,
-            edge_mass=edge_mass(hyps),
-            # the last fix a forgiven outlier: the lineage sits at the outlier's place and
-            # the position goes back the way the vehicle came (else it stops at a node)
-            came_from=basis if self._f.gated[row] else None,
-        )
-        edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
-        place_p = float(self._f.place[row]) * moved.branch_share
-        if self._arrivals.switches((edge, direction)):  # a switch behind: held there?
-            released = self._arrivals.switches_behind(basis) if basis else frozenset()
-            held = hold_at_switch(
-                self._arrivals, hyps, edge, off, direction, released=released, route=last.route
-            )
-            if held is not None:
-                edge, off, direction, past_m, _ = held
-                s_std, place_p = s_std + past_m, float(self._f.place[row])
-        age = t - float(self._f.t_fix[row])
-        odometer_run = float(self._f.odo[row] - self._f.odo_fix[row])
-        if math.isfinite(odometer_run):
-            exhausted = odometer_run > c.odometer_dead_reckoning_m
-        else:
-            exhausted = age > c.dead_reckoning_s
-        status: PositionStatus
-        if self._f.lost[row] is not None or exhausted or float(s_std) > c.lost_sigma_m:
-            status = "lost"
-        elif place_p >= c.confidence:
-            status = "confident"
-        else:
-            status = "ambiguous"
-        return Placement(
-            vid,
-            t,
-            status,
-            edge,
-            direction,
-            off,
-            float(v),
-            place_p,
-            float(s_std),
-            first.wrong_way,
-            hyps,
-            max(age, 0.0),
-        )
 
     # -- discrete fixes ------------------------------------------------------------------
     def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:

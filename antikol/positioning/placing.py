@@ -1,0 +1,256 @@
+"""Where each matched vehicle is reported: its lineage moved to the asked time, held at an
+undecided switch, and its status.
+
+The reported place follows the first hypothesis (the reported lineage) by the along-track
+filter's travel since the lineage's last fix (:func:`~antikol.positioning.deadreckoning.advance`),
+then :func:`~antikol.positioning.branching.hold_at_switch` may report it at a switch it has
+just passed whose branch is still open. Most vehicles of a cycle stay on their lineage's
+edge and have no switch within :data:`~antikol.positioning.branching.HOLD_M` behind them:
+:func:`place_vehicles` places those in array operations and only the others one at a time,
+with the same numbers either way (a test compares the two).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from antikol.kinds import PositionStatus
+from antikol.positioning.branching import HOLD_M, Arrivals, hold_at_switch
+from antikol.positioning.config import PositioningConfig
+from antikol.positioning.deadreckoning import advance, edge_mass
+from antikol.positioning.fleet import FleetState
+from antikol.positioning.outputs import Placement
+from antikol.positioning.records import Hypothesis
+from trackmap import TrackMap
+
+__all__ = ["Estimate", "place_one", "place_vehicles"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+#: A move shorter than this leaves the position where it is, m (as ``advance``).
+_NO_MOVE_M = 1e-6
+#: Below this many vehicles the array path costs more than it saves.
+ARRAY_FROM = 16
+
+#: The along-track filter's estimate of each vehicle: position (m along its history),
+#: speed (m/s) and the position's standard deviation (m), parallel arrays.
+Estimate = tuple[FloatArray, FloatArray, FloatArray]
+
+
+def place_vehicles(
+    net: TrackMap,
+    arrivals: Arrivals,
+    fleet: FleetState,
+    config: PositioningConfig,
+    vehicle_ids: Sequence[str],
+    rows: IntArray,
+    when_s: FloatArray,
+    estimate: Estimate,
+    hypotheses: Sequence[tuple[Hypothesis, ...]],
+    bases: Sequence[tuple[int, int] | None],
+    *,
+    array_from: int = ARRAY_FROM,
+) -> list[Placement]:
+    """Place matched vehicles at the asked times.
+
+    Parameters
+    ----------
+    net : TrackMap
+    arrivals : Arrivals
+        Of ``net`` (the switch hold's look-ups).
+    fleet : FleetState
+        The matcher's state (read only).
+    config : PositioningConfig
+    vehicle_ids : sequence of str
+    rows : ndarray of int
+        Each vehicle's row in ``fleet`` (every one matched, with a report).
+    when_s : ndarray of float
+        Time each is placed at, s.
+    estimate : Estimate
+        The along-track filter's estimate of each at ``when_s``.
+    hypotheses : sequence of tuple of Hypothesis
+        Each vehicle's hypotheses, its reported lineage first.
+    bases : sequence of (int, int) or None
+        Where each was placed before (edge id, direction): switches behind it are released.
+    array_from : int, keyword-only
+        From this many vehicles on, those that stay on their lineage's edge away from
+        switches are placed in array operations (tests set 0 to exercise it always).
+
+    Returns
+    -------
+    list of Placement
+        In the order of ``vehicle_ids``.
+    """
+    n = len(vehicle_ids)
+    s, v, s_std = estimate
+    if n < max(array_from, 1):
+        return [
+            place_one(
+                net,
+                arrivals,
+                fleet,
+                config,
+                vehicle_ids[i],
+                int(rows[i]),
+                float(when_s[i]),
+                (s[i], v[i], s_std[i]),
+                hypotheses[i],
+                bases[i],
+            )
+            for i in range(n)
+        ]
+    state = fleet.hs[rows, 0]
+    edge = state >> 1
+    direction = 1 - 2 * (state & 1)
+    offset = fleet.ho[rows, 0]
+    run = s - fleet.z[rows]
+    moved = np.where(np.abs(run) < _NO_MOVE_M, offset, offset + direction * run)
+    length = arrivals.lengths_m[edge]
+    past = np.where(direction == 1, moved, length - moved)
+    plain = ((np.abs(run) < _NO_MOVE_M) | ((moved >= 0.0) & (moved <= length))) & ~(
+        past + arrivals.nearest_switch_m(edge, direction) <= HOLD_M
+    )
+    age = when_s - fleet.t_fix[rows]
+    odometer_run = fleet.odo[rows] - fleet.odo_fix[rows]
+    exhausted = np.where(
+        np.isfinite(odometer_run),
+        odometer_run > config.odometer_dead_reckoning_m,
+        age > config.dead_reckoning_s,
+    )
+    lost = exhausted | (s_std > config.lost_sigma_m)
+    place_p = fleet.place[rows]
+    confident = place_p >= config.confidence
+    columns = (
+        moved.tolist(),
+        v.tolist(),
+        place_p.tolist(),
+        s_std.tolist(),
+        np.maximum(age, 0.0).tolist(),
+        lost.tolist(),
+        confident.tolist(),
+        plain.tolist(),
+        rows.tolist(),
+        when_s.tolist(),
+    )
+    out: list[Placement] = []
+    rows_of = zip(*columns, strict=True)
+    for i, (off, speed, p, sd, dr, gone, sure, easy, row, t) in enumerate(rows_of):
+        hyps = hypotheses[i]
+        if not easy:
+            out.append(
+                place_one(
+                    net,
+                    arrivals,
+                    fleet,
+                    config,
+                    vehicle_ids[i],
+                    row,
+                    t,
+                    (s[i], v[i], s_std[i]),
+                    hyps,
+                    bases[i],
+                )
+            )
+            continue
+        first = hyps[0]
+        status: PositionStatus
+        if gone or fleet.lost[row] is not None:
+            status = "lost"
+        elif sure:
+            status = "confident"
+        else:
+            status = "ambiguous"
+        out.append(
+            Placement(
+                vehicle_ids[i],
+                t,
+                status,
+                first.edge_id,
+                first.direction,
+                off,
+                speed,
+                p,
+                sd,
+                first.wrong_way,
+                hyps,
+                dr,
+            )
+        )
+    return out
+
+
+def place_one(
+    net: TrackMap,
+    arrivals: Arrivals,
+    fleet: FleetState,
+    config: PositioningConfig,
+    vehicle_id: str,
+    row: int,
+    t: float,
+    estimate: tuple[float, float, float],
+    hyps: tuple[Hypothesis, ...],
+    basis: tuple[int, int] | None,
+) -> Placement:
+    """Where one matched vehicle is at ``t`` (s) from its along-track estimate (position,
+    speed, sigma: m, m/s, m), its hypotheses and where it was placed before (``basis``:
+    edge, direction); see :func:`place_vehicles`."""
+    s, v, s_std = estimate
+    c = config
+    last = fleet.last[row]
+    if last is None:  # pragma: no cover - only vehicles with a report are placed
+        raise RuntimeError(f"positioning state of {vehicle_id!r} without a report")
+    first = hyps[0]
+    moved = advance(
+        net,
+        first.edge_id,
+        first.offset_m,
+        first.direction,
+        float(s) - fleet.z[row],
+        last,
+        wrong=first.wrong_way,
+        edge_mass=edge_mass(hyps),
+        # the last fix a forgiven outlier: the lineage sits at the outlier's place and
+        # the position goes back the way the vehicle came (else it stops at a node)
+        came_from=basis if fleet.gated[row] else None,
+    )
+    edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
+    place_p = float(fleet.place[row]) * moved.branch_share
+    if arrivals.switches((edge, direction)):  # a switch behind: held there?
+        released = arrivals.switches_behind(basis) if basis else frozenset()
+        held = hold_at_switch(
+            arrivals, hyps, edge, off, direction, released=released, route=last.route
+        )
+        if held is not None:
+            edge, off, direction, past_m, _ = held
+            s_std, place_p = s_std + past_m, float(fleet.place[row])
+    age = t - float(fleet.t_fix[row])
+    odometer_run = float(fleet.odo[row] - fleet.odo_fix[row])
+    if math.isfinite(odometer_run):
+        exhausted = odometer_run > c.odometer_dead_reckoning_m
+    else:
+        exhausted = age > c.dead_reckoning_s
+    status: PositionStatus
+    if fleet.lost[row] is not None or exhausted or float(s_std) > c.lost_sigma_m:
+        status = "lost"
+    elif place_p >= c.confidence:
+        status = "confident"
+    else:
+        status = "ambiguous"
+    return Placement(
+        vehicle_id,
+        t,
+        status,
+        edge,
+        direction,
+        off,
+        float(v),
+        place_p,
+        float(s_std),
+        first.wrong_way,
+        hyps,
+        max(age, 0.0),
+    )
