@@ -18,6 +18,7 @@ import math
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -165,59 +166,66 @@ def score_fixes(
     noise_var = (sigma * sigma)[cv]
     floor = c.outlier_weight / (2.0 * radius[cv])
 
-    # pairs: every candidate state with every slot of its vehicle's previous hypotheses
-    k = fleet.k
+    # pairs: every candidate state with every filled slot of its vehicle's previous
+    # hypotheses (most vehicles fill one of the k slots), computed on the pairs alone
     prow = rows[cv]
-    ps = fleet.hs[prow]  # (m, k)
-    valid = (ps >= 0) & ~fresh[cv][:, None]
-    pss = np.where(valid, ps, 0)
-    po = fleet.ho[prow]
-    exp_m = travelled[cv][:, None]
-    came_from = fleet.hv[prow].astype(np.int64)
+    valid = (fleet.hs[prow] >= 0) & ~fresh[cv][:, None]
+    pc, pk = np.nonzero(valid)  # candidate and slot of each pair
+    pr = prow[pc]
+    pss = fleet.hs[pr, pk]
+    po = fleet.ho[pr, pk]
+    exp_m = travelled[cv][pc]
+    p_cs = cs[pc]
     dist = reach.signed_distance(
         pss,
         po,
-        np.repeat(cs[:, None], k, 1),
-        np.repeat(co[:, None], k, 1),
+        p_cs,
+        co[pc],
         expected_m=exp_m,
-        came_from=came_from,
+        came_from=fleet.hv[pr, pk].astype(np.int64),
     )
     beta = np.where(
         has_odo,
         0.3 * c.transition_beta_m + 0.02 * travelled,
         c.transition_beta_m + 0.1 * travelled,
-    )[cv][:, None]
+    )[cv][pc]
     move_cost = np.abs(dist - exp_m) / beta
     # a standing vehicle may change direction (bidirectional trams at termini)
-    reversal = ((pss >> 1) == (cs >> 1)[:, None]) & ((pss & 1) != (cs & 1)[:, None])
+    reversal = ((pss >> 1) == (p_cs >> 1)) & ((pss & 1) != (p_cs & 1))
     rev_ok = reversal & (exp_m < 1.0)
-    rev_dist = np.abs(co[:, None] - po)
+    rev_dist = np.abs(co[pc] - po)
     move_cost = np.where(rev_ok, rev_dist / beta, move_cost)
     trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost
     dist = np.where(rev_ok, rev_dist, dist)
-    enters_wrong = wrong[:, None] & reach.allowed[pss]
+    enters_wrong = wrong[pc] & reach.allowed[pss]
     trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
-    trans = np.where(valid & np.isfinite(trans), trans, _NEG_INF)
+    trans = np.where(np.isfinite(trans), trans, _NEG_INF)
 
     parent = BiasState(
-        fleet.bx[prow],
-        fleet.by[prow],
-        fleet.pxx[prow],
-        fleet.pxy[prow],
-        fleet.pyy[prow],
+        fleet.bx[pr, pk],
+        fleet.by[pr, pk],
+        fleet.pxx[pr, pk],
+        fleet.pxy[pr, pk],
+        fleet.pyy[pr, pk],
     )
-    prior = bias_predict(parent, dt[cv][:, None], bias_sigma[cv][:, None], c.bias_tau_s)
-    post, resid, var = bias_update(
-        prior, nx[:, None], ny[:, None], lateral[:, None], noise_var[:, None]
-    )
+    pcv = cv[pc]
+    prior = bias_predict(parent, dt[pcv], bias_sigma[pcv], c.bias_tau_s)
+    post, resid, var = bias_update(prior, nx[pc], ny[pc], lateral[pc], noise_var[pc])
     lat_ll = np.log(
         (1.0 - c.outlier_weight)
         * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
         / math.sqrt(2.0 * math.pi)
-        + floor[:, None]
+        + floor[pc]
     )
-    emit = (lat_ll + static_ll[:, None]) * weight[cv][:, None]
-    score = fleet.hp[prow] + trans + emit
+    emit = (lat_ll + static_ll[pc]) * weight[pcv]
+    # laid out (candidate, slot) for the reductions, every other slot at -inf: the sums
+    # run over the k slots in the same order whatever the number of hypotheses
+    score = np.full(valid.shape, _NEG_INF)
+    score[pc, pk] = fleet.hp[pr, pk] + trans + emit
+    cost = np.full(valid.shape, np.inf)
+    cost[pc, pk] = move_cost
+    pair_of = np.full(valid.shape, len(pc))  # the pair at each (candidate, slot); none
+    pair_of[pc, pk] = np.arange(len(pc))
     best = np.argmax(score, axis=1)
     ar = np.arange(len(cs))
     top = score[ar, best]
@@ -240,7 +248,7 @@ def score_fixes(
     # plausible move reaches (a jump the map cannot explain, a far outlier near another
     # track); the vehicle keeps its hypotheses and the report is dead-reckoned
     cont = ~fresh[cv]
-    cheapest = np.min(np.where(valid, move_cost, np.inf), axis=1)
+    cheapest = np.min(cost, axis=1)
     plausible = np.isfinite(lse) & cont & (cheapest <= c.implausible_move_nats)
     reach_any = np.zeros(n, bool)
     np.logical_or.at(reach_any, cv, plausible)
@@ -290,14 +298,27 @@ def score_fixes(
         stats["relocation_deferred"] += int(np.count_nonzero(deferred))
         rejected = rejected + deferred
         stuck = stuck | deferred
-    new_prog = np.where(use0, 0.0, fleet.hg[prow][ar, best] + dist[ar, best])
+    # the best parent of each candidate state (a slot without a pair only where the
+    # vehicle starts afresh, which every use below masks)
+    chosen = pair_of[ar, best]
+
+    def of_best(a: npt.NDArray[Any], empty: float) -> npt.NDArray[Any]:
+        return np.append(a, np.array([empty], dtype=a.dtype))[chosen]
+
+    new_prog = np.where(use0, 0.0, fleet.hg[prow, best] + of_best(dist, 0.0))
     new_parent = np.where(use0, -1, best)
-    new_ww = np.where(wrong, np.where(use0, 0.0, fleet.hw[prow][ar, best] + dt[cv]), 0.0)
-    entered = _came_from(reach, pss[ar, best], came_from[ar, best], cs, dist[ar, best])
-    new_came: FloatArray = np.where(use0 | rev_ok[ar, best], -1.0, entered.astype(float))
+    new_ww = np.where(wrong, np.where(use0, 0.0, fleet.hw[prow, best] + dt[cv]), 0.0)
+    entered = _came_from(
+        reach,
+        of_best(pss, 0),
+        fleet.hv[prow, best].astype(np.int64),
+        cs,
+        of_best(dist, 0.0),
+    )
+    new_came: FloatArray = np.where(use0 | of_best(rev_ok, False), -1.0, entered.astype(float))
 
     def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
-        return np.where(use0, a0, a[ar, best])
+        return np.where(use0, a0, of_best(a, 0.0))
 
     bias_cols = (
         pick(post0.bx, post.bx),
