@@ -45,3 +45,48 @@ def test_whole_fleet_hits_equal_the_per_vehicle_rule(seed, n, spread, lat0, d_co
             rule.evaluate(own, others, course_deg=courses[k]) if courses[k] is not None else []
         )
         assert batch[k] == expected
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 80),
+    spread=st.sampled_from([0.0005, 0.003]),
+    lat0=st.sampled_from([50.06, -33.9, 69.6]),
+)
+def test_closing_speeds_of_a_cycle_equal_those_hit_by_hit(seed, n, spread, lat0):
+    """One array call for every hit of a cycle gives the numbers of one call per hit (the
+    own vehicle at its kept course, else its reported one), bit for bit."""
+    import math
+
+    from antikol.analysis.geometry import closing_speed_mps
+    from antikol.analysis.sector import closing_speeds
+
+    reports, courses = _fleet(seed, n, spread, lat0)
+    rng = np.random.default_rng(seed + 2)
+    reports = [
+        VehicleReport(r.vehicle_id, 0.0, r.lat, r.lon, float(v), r.course_deg)
+        for r, v in zip(reports, rng.uniform(0.0, 20.0, n), strict=True)
+    ]
+    # a kept course that is not the reported one (the vehicle slowed below the threshold)
+    courses = [c if c is None or rng.random() < 0.7 else (c + 40.0) % 360.0 for c in courses]
+    hits = SectorRule(half_angle_deg=60.0).evaluate_all(reports, courses)
+    closing = closing_speeds(reports, courses, hits)
+    by_id = {r.vehicle_id: r for r in reports}
+    assert len(closing) == sum(len(h) for h in hits)
+    for own, course, own_hits in zip(reports, courses, hits, strict=True):
+        for h in own_hits:
+            bearing = math.radians(h.bearing_deg)
+            expected = float(
+                closing_speed_mps(
+                    h.distance_m * math.sin(bearing),
+                    h.distance_m * math.cos(bearing),
+                    own.speed_mps,
+                    own.course_deg if course is None else course,
+                    by_id[h.vehicle_id].speed_mps,
+                    by_id[h.vehicle_id].course_deg,
+                )
+            )
+            got = closing[(own.vehicle_id, h.vehicle_id)]
+            assert got.closing_speed_mps == expected
+            assert (got.own, got.other, got.hit) == (own, by_id[h.vehicle_id], h)

@@ -50,7 +50,7 @@ from antikol.analysis.conflicts import RuleSettings
 from antikol.analysis.geometry import closing_speed_mps
 from antikol.analysis.pairs import PairEvaluator, PairOutcome, PairSettings
 from antikol.analysis.profiles import BrakingProfile, load_profile
-from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
+from antikol.analysis.sector import CourseKeeper, HitClosing, SectorHit, SectorRule, closing_speeds
 from antikol.analysis.threats import suppression_reason, track_threat
 from antikol.analysis.views import CycleViews, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
@@ -341,6 +341,7 @@ class Analyser:
             None,
             {},
         )
+        self._sector_closing: dict[tuple[str, str], HitClosing] = {}
 
     # -- input ---------------------------------------------------------------------------
     def update(self, report: VehicleReport) -> TableUpdate:
@@ -672,13 +673,13 @@ class Analyser:
             key = (now, self._version)
             if self._sector_cycle[0] != key:
                 reports = list(self.table)
+                courses = [self.courses.course(r.vehicle_id) for r in reports]
                 hits = self.sector.evaluate_all(
-                    reports,
-                    [self.courses.course(r.vehicle_id) for r in reports],
-                    targets=[now - r.t <= self.expiry_s for r in reports],
+                    reports, courses, targets=[now - r.t <= self.expiry_s for r in reports]
                 )
                 by_id = {r.vehicle_id: h for r, h in zip(reports, hits, strict=True)}
                 self._sector_cycle = (key, by_id)
+                self._sector_closing = closing_speeds(reports, courses, hits)
             return self._sector_cycle[1].get(own.vehicle_id, [])
         course = self.courses.course(own.vehicle_id)
         others = [r for r in self.table.others(own.vehicle_id) if now - r.t <= self.expiry_s]
@@ -689,18 +690,22 @@ class Analyser:
     def _sector_threat(
         self, own: VehicleReport, other: VehicleReport, hit: SectorHit, note: str = ""
     ) -> Threat:
-        course = self.courses.course(own.vehicle_id)
-        bearing = math.radians(hit.bearing_deg)
-        closing = float(
-            closing_speed_mps(
-                hit.distance_m * math.sin(bearing),
-                hit.distance_m * math.cos(bearing),
-                own.speed_mps,
-                own.course_deg if course is None else course,
-                other.speed_mps,
-                other.course_deg,
+        known = self._sector_closing.get((own.vehicle_id, hit.vehicle_id))
+        if known is not None and known[0] is own and known[1] is other and known[2] is hit:
+            closing = known[3]  # the cycle's hits, computed in one array call
+        else:
+            course = self.courses.course(own.vehicle_id)
+            bearing = math.radians(hit.bearing_deg)
+            closing = float(
+                closing_speed_mps(
+                    hit.distance_m * math.sin(bearing),
+                    hit.distance_m * math.cos(bearing),
+                    own.speed_mps,
+                    own.course_deg if course is None else course,
+                    other.speed_mps,
+                    other.course_deg,
+                )
             )
-        )
         detail = (
             f"within {self.sector.d_col_m:g} m and ±{self.sector.half_angle_deg:g}° of own course"
         )

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +25,7 @@ from scipy.spatial import cKDTree
 from antikol.analysis.geometry import (
     PAPER_SPHERE_RADIUS_M,
     angle_difference_deg,
+    closing_speed_mps,
     dist_km,
     latdist_km,
     londist_km,
@@ -34,7 +36,7 @@ from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
 
-__all__ = ["CourseKeeper", "SectorHit", "SectorRule"]
+__all__ = ["CourseKeeper", "HitClosing", "SectorHit", "SectorRule", "closing_speeds"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -208,6 +210,67 @@ class SectorHit:
     vehicle_id: str
     distance_m: float
     bearing_deg: float
+
+
+class HitClosing(NamedTuple):
+    """The closing speed of one sector hit, with the reports it was computed from."""
+
+    own: VehicleReport
+    other: VehicleReport
+    hit: SectorHit
+    closing_speed_mps: float
+
+
+def closing_speeds(
+    reports: Sequence[VehicleReport],
+    courses: Sequence[float | None],
+    hits: Sequence[Sequence[SectorHit]],
+) -> dict[tuple[str, str], HitClosing]:
+    """The closing speed of every hit of a cycle in one array call.
+
+    The numbers are those of :func:`~antikol.analysis.geometry.closing_speed_mps` called
+    hit by hit (the other vehicle's offset from the hit's distance and bearing, the own
+    vehicle at its kept course).
+
+    Parameters
+    ----------
+    reports : sequence of VehicleReport
+        The reports the hits were found among.
+    courses : sequence of float or None
+        The course used for each report, degrees (None: no hits of its own).
+    hits : sequence of sequence of SectorHit
+        Each report's hits (:meth:`SectorRule.evaluate_all`).
+
+    Returns
+    -------
+    dict
+        ``(own id, other id)`` to :class:`HitClosing` (closing speed in m/s, positive when
+        closing).
+    """
+    index = {r.vehicle_id: k for k, r in enumerate(reports)}
+    rows = [(i, index[h.vehicle_id], h) for i, own in enumerate(hits) for h in own]
+    if not rows:
+        return {}
+    own_i = np.array([i for i, _, _ in rows], dtype=np.int64)
+    other_i = np.array([j for _, j, _ in rows], dtype=np.int64)
+    distance = np.array([h.distance_m for _, _, h in rows], dtype=float)
+    bearing = np.radians(np.array([h.bearing_deg for _, _, h in rows], dtype=float))
+    speed = np.fromiter((r.speed_mps for r in reports), dtype=float, count=len(reports))
+    reported = np.fromiter((r.course_deg for r in reports), dtype=float, count=len(reports))
+    kept = np.array([np.nan if c is None else c for c in courses], dtype=float)
+    own_course = np.where(np.isnan(kept), reported, kept)[own_i]
+    closing = closing_speed_mps(
+        distance * np.sin(bearing),
+        distance * np.cos(bearing),
+        speed[own_i],  # type: ignore[arg-type]  # arrays: one own vehicle per hit
+        own_course,  # type: ignore[arg-type]
+        speed[other_i],
+        reported[other_i],
+    )
+    return {
+        (reports[i].vehicle_id, h.vehicle_id): HitClosing(reports[i], reports[j], h, c)
+        for (i, j, h), c in zip(rows, np.asarray(closing).tolist(), strict=True)
+    }
 
 
 @dataclass
