@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import trackmap
@@ -114,3 +114,76 @@ def test_a_line_index_out_of_range_is_an_index_error():
             packed.interpolate([1], [0.0], search_from=search_from)
         with pytest.raises(IndexError, match="out of range"):
             packed.interpolate([-1], [0.0], search_from=search_from)
+
+
+def _shapely_nearest(lines, x, y, radius):
+    """The reference: shapely's dwithin query and line_locate_point, sorted by point, line."""
+    geoms = np.array(lines, dtype=object)
+    finite = np.isfinite(x) & np.isfinite(y)
+    pts = shapely.points(np.where(finite, x, 0.0), np.where(finite, y, 0.0))
+    pts[~finite] = None
+    p, e = shapely.STRtree(geoms).query(pts, predicate="dwithin", distance=radius)
+    order = np.lexsort((e, p))
+    p, e = p[order], e[order]
+    with np.errstate(invalid="ignore", divide="ignore"):  # GEOS on zero-length segments
+        return p, e, shapely.line_locate_point(geoms[e], pts[p])
+
+
+@st.composite
+def lines_and_points(draw):
+    small = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)
+    lines = []
+    for _ in range(draw(st.integers(1, 4))):
+        pts = draw(st.lists(st.tuples(small, small), min_size=2, max_size=8))
+        repeats = draw(st.lists(st.integers(0, len(pts) - 1), max_size=3))
+        for k in sorted(repeats, reverse=True):
+            pts.insert(k, pts[k])
+        lines.append(shapely.LineString(pts))
+    vertices = [tuple(c) for g in lines for c in shapely.get_coordinates(g).tolist()]
+    # anywhere, exactly on a vertex (where segments tie), or not a number
+    point = st.one_of(
+        st.tuples(small, small),
+        st.sampled_from(vertices),
+        st.sampled_from([(np.nan, 0.0), (np.inf, 1.0)]),
+    )
+    xy = draw(st.lists(point, min_size=1, max_size=10))
+    radius = draw(st.sampled_from([0.5, 5.0, 25.0, 200.0]))
+    return lines, np.array([p[0] for p in xy]), np.array([p[1] for p in xy]), radius
+
+
+@settings(max_examples=300, deadline=None)
+@given(lines_and_points())
+# a segment whose end lies beyond the radius in exact arithmetic, at it in floating point
+@example(
+    (
+        [shapely.LineString([(0, -3), (1, 1), (0, 2.962e-110)])],
+        np.array([0.0]),
+        np.array([-0.5]),
+        0.5,
+    )
+)
+def test_nearest_within_is_shapely_to_the_last_bit(case):
+    """The lines within the radius of each point and the distance along each: those of a
+    ``dwithin`` query and :func:`shapely.line_locate_point`, repeated vertices and points
+    exactly on a vertex included."""
+    lines, x, y, radius = case
+    point, line, offset = PackedLines(lines).nearest_within(x, y, radius)
+    ref_point, ref_line, ref_offset = _shapely_nearest(lines, x, y, radius)
+    assert point.tolist() == ref_point.tolist()
+    assert line.tolist() == ref_line.tolist()
+    assert same_bits(offset, ref_offset)
+
+
+def test_nearest_within_on_the_embedded_map_to_the_last_bit():
+    net = trackmap.load_default()
+    geoms = np.array([e.geometry for e in net.edges], dtype=object)
+    xy = shapely.get_coordinates(geoms)
+    rng = np.random.default_rng(8)
+    # near the track (GPS fixes) and exactly on its vertices
+    near = xy[rng.integers(0, len(xy), 20_000)] + rng.normal(0.0, 8.0, (20_000, 2))
+    on = xy[rng.integers(0, len(xy), 2_000)]
+    pts = np.concatenate([near, on])
+    got = PackedLines(geoms).nearest_within(pts[:, 0], pts[:, 1], 25.0)
+    ref = _shapely_nearest(list(geoms), pts[:, 0], pts[:, 1], 25.0)
+    assert got[0].tolist() == ref[0].tolist() and got[1].tolist() == ref[1].tolist()
+    assert same_bits(got[2], ref[2])

@@ -21,6 +21,14 @@ The arithmetic is that of GEOS's linear referencing (``LengthLocationMap`` and
   distance), zero or less from the start is the first vertex, a distance beyond the end
   the last vertex; a NaN distance gives NaN coordinates (shapely's empty point).
 
+The nearest place on each line within a radius of many points
+(:meth:`PackedLines.nearest_within`, what a ``dwithin`` query of an STRtree and
+:func:`shapely.line_locate_point` give) is found through an STRtree of the lines'
+*segments*: only the segments near a point are measured, in array code, with the
+arithmetic of GEOS's ``Distance::pointToSegment`` and ``LengthIndexOfPoint`` (the first
+segment at the least distance; its projection factor clamped to it, added to the running
+length before it).
+
 >>> import shapely
 >>> lines = PackedLines([shapely.LineString([(0, 0), (3, 4), (3, 10)])])
 >>> x, y = lines.interpolate([0, 0, 0], [2.5, 8.0, 99.0])
@@ -41,6 +49,8 @@ __all__ = ["ARRAY_SEARCH_FROM", "PackedLines"]
 #: Below this many queries one shapely call costs less than the array search (its cost is
 #: mostly per call); the numbers are the same either way.
 ARRAY_SEARCH_FROM = 160
+#: The segments searched around a point reach this much beyond the radius, m.
+_BOX_MARGIN_M = 1e-6
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -68,6 +78,7 @@ class PackedLines:
         "_last_segment",
         "_length",
         "_segment",
+        "_segments",
         "_x",
         "_y",
     )
@@ -110,6 +121,7 @@ class PackedLines:
             length[i] = run[-1]
         self._cum_after: FloatArray = cum_after
         self._length: FloatArray = length
+        self._segments: _SegmentIndex | None = None
 
     def __len__(self) -> int:
         return len(self._first)
@@ -203,3 +215,123 @@ class PackedLines:
         x[np.isnan(dist)] = np.nan
         y[np.isnan(dist)] = np.nan
         return x.reshape(shape), y.reshape(shape)
+
+    def nearest_within(
+        self, x: FloatArray, y: FloatArray, radius_m: float
+    ) -> tuple[IntArray, IntArray, FloatArray]:
+        """Every line within ``radius_m`` of each point, and the distance along it of the
+        point's nearest place, as :func:`shapely.line_locate_point` computes it.
+
+        The lines near a point are found through an index of their segments, and only
+        the segments near it are measured: a large batch costs a few array operations
+        instead of a walk over every segment of every line in reach.
+
+        Parameters
+        ----------
+        x, y : ndarray of float
+            The points, m (non-finite: no lines).
+        radius_m : float
+            Search radius, m.
+
+        Returns
+        -------
+        point, line : ndarray of int
+            Index of the point and of the line of each row, sorted by point, then line.
+        offset_m : ndarray of float
+            Distance along the line of the point's nearest place, m (GEOS's arithmetic:
+            the first nearest segment, the projection factor clamped to it, the running
+            length before it).
+
+        Examples
+        --------
+        >>> import shapely
+        >>> lines = PackedLines([shapely.LineString([(0, 0), (10, 0)]),
+        ...                      shapely.LineString([(0, 5), (10, 5)])])
+        >>> point, line, offset = lines.nearest_within(np.array([3.0]), np.array([1.0]), 2.0)
+        >>> point.tolist(), line.tolist(), offset.tolist()
+        ([0], [0], [3.0])
+        """
+        if self._segments is None:
+            self._segments = _SegmentIndex.build(self)
+        return self._segments.nearest_within(
+            np.asarray(x, dtype=float), np.asarray(y, dtype=float), float(radius_m)
+        )
+
+
+class _SegmentIndex:
+    """An STRtree of the segments of :class:`PackedLines` with their end points, lines and
+    running lengths before them (built on first use)."""
+
+    __slots__ = ("ax", "ay", "before", "bx", "by", "length", "line", "n_lines", "tree")
+
+    def __init__(
+        self,
+        tree: shapely.STRtree,
+        ends: FloatArray,
+        line: IntArray,
+        before: FloatArray,
+        length: FloatArray,
+        n_lines: int,
+    ) -> None:
+        self.tree = tree
+        self.ax, self.ay, self.bx, self.by = ends
+        self.line = line
+        self.before = before
+        self.length = length
+        self.n_lines = n_lines
+
+    @classmethod
+    def build(cls, lines: PackedLines) -> _SegmentIndex:
+        first, last = lines._first, lines._last_segment
+        counts = last - first + 1
+        line = np.repeat(np.arange(len(first), dtype=np.int64), counts)
+        # flat vertex index of each segment's start: its line's first plus its rank
+        rank = np.arange(len(line), dtype=np.int64) - np.repeat(np.cumsum(counts) - counts, counts)
+        start = first[line] + rank
+        before = np.where(rank == 0, 0.0, lines._cum_after[np.maximum(start - 1, 0)])
+        ends = np.stack(
+            [lines._x[start], lines._y[start], lines._x[start + 1], lines._y[start + 1]]
+        )
+        tree = shapely.STRtree(
+            shapely.linestrings(np.stack([ends[[0, 1]].T, ends[[2, 3]].T], axis=1))
+        )
+        return cls(tree, ends, line, before, lines._segment[start], len(first))
+
+    def nearest_within(
+        self, x: FloatArray, y: FloatArray, radius_m: float
+    ) -> tuple[IntArray, IntArray, FloatArray]:
+        finite = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+        fx, fy = x[finite], y[finite]
+        # boxes a micrometre wider than the radius: a segment just beyond it in exact
+        # arithmetic may be within it in floating point (as GEOS measures it)
+        reach = radius_m + _BOX_MARGIN_M
+        boxes = shapely.box(fx - reach, fy - reach, fx + reach, fy + reach)
+        q, seg = self.tree.query(boxes)
+        px, py = fx[q], fy[q]
+        ax, ay, bx, by = self.ax[seg], self.ay[seg], self.bx[seg], self.by[seg]
+        # GEOS: Distance::pointToSegment and LengthIndexOfPoint::segmentNearestMeasure
+        ex, ey = bx - ax, by - ay
+        len2 = ex * ex + ey * ey
+        to_a = np.sqrt((px - ax) * (px - ax) + (py - ay) * (py - ay))
+        to_b = np.sqrt((px - bx) * (px - bx) + (py - by) * (py - by))
+        degenerate = (ax == bx) & (ay == by)  # (no division by its zero length is used)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = ((px - ax) * ex + (py - ay) * ey) / len2
+            across = np.abs(((ay - py) * ex - (ax - px) * ey) / len2) * np.sqrt(len2)
+        dist = np.where(degenerate | (r <= 0.0), to_a, np.where(r >= 1.0, to_b, across))
+        # the projection factor is r (exactly 0 or 1 at the segment's ends, as GEOS's
+        # special cases; NaN on a degenerate segment, which ends where it starts)
+        start, length = self.before[seg], self.length[seg]
+        with np.errstate(invalid="ignore"):
+            measure = np.where(
+                r <= 0.0, start, np.where(r <= 1.0, start + r * length, start + length)
+            )
+        # per (point, line) the first segment (along the line) at the least distance
+        key = q * self.n_lines + self.line[seg]
+        order = np.lexsort((seg, dist, key))
+        key = key[order]
+        head = np.ones(len(key), dtype=bool)
+        head[1:] = key[1:] != key[:-1]
+        pick = order[head]
+        keep = pick[dist[pick] <= radius_m]  # in the order of the keys: point, then line
+        return finite[q[keep]], self.line[seg[keep]], measure[keep]

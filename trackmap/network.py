@@ -99,7 +99,6 @@ class TrackMap:
         self.metadata = metadata or MapMetadata()
         self._geoms = np.array([e.geometry for e in self.edges], dtype=object)
         self._lengths = shapely.length(self._geoms).astype(float)
-        self._tree = shapely.STRtree(self._geoms)
         #: The edges' vertices in flat arrays: points along many edges without a shapely
         #: object per point (the numbers of GEOS, see :mod:`trackmap.linear`).
         self._lines = PackedLines(self._geoms)
@@ -286,22 +285,19 @@ class TrackMap:
     def candidates_batch_xy(
         self, x: FloatArray, y: FloatArray, radius_m: float = 25.0
     ) -> CandidateBatch:
-        """Vectorised candidates for local positions (metres); one STRtree query in all."""
+        """Vectorised candidates for local positions (metres), sorted by position, then edge.
+
+        The edges within ``radius_m`` of each position and the nearest place on each
+        (:meth:`trackmap.linear.PackedLines.nearest_within`: the numbers of
+        :func:`shapely.line_locate_point`); a non-finite position has none.
+        """
         if not radius_m > 0:
             raise ValueError(f"radius_m must be positive, got {radius_m}")
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
-        finite = np.isfinite(x) & np.isfinite(y)
-        pts = shapely.points(np.where(finite, x, 0.0), np.where(finite, y, 0.0))
-        pts[~finite] = None
-        p_idx, e_idx = self._tree.query(pts, predicate="dwithin", distance=radius_m)
-        p_idx = p_idx.astype(np.int64)
-        e_idx = e_idx.astype(np.int64)
-        geoms = self._geoms[e_idx]
-        qpts = pts[p_idx]
-        offset = shapely.line_locate_point(geoms, qpts)
-        length = self._lengths[e_idx]
         lines = self._lines
+        p_idx, e_idx, offset = lines.nearest_within(x, y, radius_m)
+        length = self._lengths[e_idx]
         proj_x, proj_y = lines.interpolate(e_idx, offset)
         ahead_x, ahead_y = lines.interpolate(e_idx, np.minimum(offset + 0.5, length))
         behind_x, behind_y = lines.interpolate(e_idx, np.maximum(offset - 0.5, 0.0))
