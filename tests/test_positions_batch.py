@@ -105,6 +105,17 @@ def test_a_fleet_placed_in_arrays_is_placed_as_one_vehicle_at_a_time(busy_city, 
     assert {"confident", "ambiguous", "lost"} <= seen
 
 
+def test_a_placement_holds_the_fields_of_a_track_position_but_its_geometry():
+    """track_positions builds each record from a Placement by position."""
+    from antikol.positioning.outputs import Placement
+    from antikol.positioning.records import TrackPosition
+
+    geometry = {"lon", "lat", "heading_deg"}
+    fields = [f.name for f in dataclasses.fields(TrackPosition)]
+    assert list(Placement._fields) == [f for f in fields if f not in geometry]
+    assert fields[6:9] == ["lon", "lat", "heading_deg"]
+
+
 def test_an_unmatched_vehicle_stands_where_its_fix_is(city):
     net, reports = city
     first = reports[0]

@@ -196,17 +196,25 @@ class Positioner:
             if k == len(passes):
                 passes.append([])
             passes[k].append(r)
+        # each vehicle's position after its last report here (None: ask again at the end)
+        final: dict[str, TrackPosition | None] = {}
         for batch in passes:
             self._update_pass(batch)
-            self._remember(batch)
+            placed = self._remember(batch)
+            for r in batch:
+                final[r.vehicle_id] = placed.get(r.vehicle_id)
         if not outputs:
             return []
-        return [p for p in self.positions([r.vehicle_id for r in reports]) if p is not None]
+        again = [vid for vid, pos in final.items() if pos is None]
+        if again:
+            final.update(zip(again, self.positions(again), strict=True))
+        return [pos for r in reports if (pos := final[r.vehicle_id]) is not None]
 
-    def _remember(self, reports: list[VehicleReport]) -> None:
+    def _remember(self, reports: list[VehicleReport]) -> dict[str, TrackPosition]:
         """Place the vehicles at their new reports' times and remember where (the switch
         hold's memory): a function of the reports taken alone, never of which positions
-        were asked for, and when (a rejected report changes nothing)."""
+        were asked for, and when (a rejected report changes nothing). Returns the
+        positions of the vehicles whose report was taken."""
         vehicle_ids = [
             r.vehicle_id
             for r in reports
@@ -219,9 +227,14 @@ class Positioner:
                 self._reported_before.pop(vid, None)
             else:
                 self._reported_before[vid] = before
+        placed: dict[str, TrackPosition] = {}
         for pos in self.positions(vehicle_ids):
-            if pos is not None and pos.edge_id is not None and pos.direction is not None:
+            if pos is None:  # pragma: no cover - a taken report leaves a state
+                continue
+            placed[pos.vehicle_id] = pos
+            if pos.edge_id is not None and pos.direction is not None:
                 self._reported[pos.vehicle_id] = (pos.edge_id, pos.direction)
+        return placed
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
         """The vehicle's position at time ``t`` (dead-reckoned when later than its report).
