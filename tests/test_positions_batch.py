@@ -116,6 +116,21 @@ def test_a_placement_holds_the_fields_of_a_track_position_but_its_geometry():
     assert fields[6:9] == ["lon", "lat", "heading_deg"]
 
 
+def test_hypotheses_are_built_in_the_order_of_their_fields():
+    """hypotheses_of builds each Hypothesis by position."""
+    from antikol.positioning.records import Hypothesis
+
+    assert [f.name for f in dataclasses.fields(Hypothesis)] == [
+        "edge_id",
+        "direction",
+        "offset_m",
+        "probability",
+        "progress_m",
+        "wrong_way",
+        "wrong_way_s",
+    ]
+
+
 def test_an_unmatched_vehicle_stands_where_its_fix_is(city):
     net, reports = city
     first = reports[0]

@@ -298,9 +298,15 @@ class TrackMap:
         lines = self._lines
         p_idx, e_idx, offset = lines.nearest_within(x, y, radius_m)
         length = self._lengths[e_idx]
-        proj_x, proj_y = lines.interpolate(e_idx, offset)
-        ahead_x, ahead_y = lines.interpolate(e_idx, np.minimum(offset + 0.5, length))
-        behind_x, behind_y = lines.interpolate(e_idx, np.maximum(offset - 0.5, 0.0))
+        # the projected point and half a metre either side, in one search
+        xs_, ys_ = lines.interpolate(
+            np.tile(e_idx, 3),
+            np.concatenate(
+                [offset, np.minimum(offset + 0.5, length), np.maximum(offset - 0.5, 0.0)]
+            ),
+        )
+        proj_x, ahead_x, behind_x = np.split(xs_, 3)
+        proj_y, ahead_y, behind_y = np.split(ys_, 3)
         tx = ahead_x - behind_x
         ty = ahead_y - behind_y
         dx = x[p_idx] - proj_x

@@ -77,8 +77,8 @@ def find_candidates(
     """Places on the tracks near each fix: the nearest point of every edge in reach,
     and on a loop the nearest point of its other half too (where a turning loop closes,
     its start and end lie metres apart and the fix may belong to either)."""
-    batch = net.candidates_batch_xy(xs, ys, float(radius.max()))
-    order = np.lexsort((batch.edge_id, batch.point))
+    batch = net.candidates_batch_xy(xs, ys, float(radius.max()))  # by fix, then edge
+    order = np.arange(len(batch.point))
     pt = batch.point[order]
     # a fix beyond an edge's end projects onto that end: the neighbouring edge holds it
     # (a candidate there would turn an along-track miss into a small "lateral" offset)

@@ -124,15 +124,9 @@ def hypotheses_of(
         a[filled].tolist() for a in (states, offsets_m, log_probability, progress_m, wrong_way_s)
     ]
     hyps = [
-        Hypothesis(
-            edge_id=s >> 1,
-            direction=1 - 2 * (s & 1),
-            offset_m=o,
-            probability=math.exp(p),
-            progress_m=g,
-            wrong_way=not ok[s],
-            wrong_way_s=w,
-        )
+        # positional: edge_id, direction, offset_m, probability, progress_m, wrong_way,
+        # wrong_way_s (a test keeps the order)
+        Hypothesis(s >> 1, 1 - 2 * (s & 1), o, math.exp(p), g, not ok[s], w)
         for s, o, p, g, w in zip(*flat, strict=True)
     ]
     out: list[tuple[Hypothesis, ...]] = []

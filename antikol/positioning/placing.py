@@ -35,6 +35,7 @@ IntArray = npt.NDArray[np.int64]
 _NO_MOVE_M = 1e-6
 #: Below this many vehicles the array path costs more than it saves.
 ARRAY_FROM = 16
+_STATUSES: tuple[PositionStatus, ...] = ("confident", "ambiguous", "lost")
 
 #: The along-track filter's estimate of each vehicle: position (m along its history),
 #: speed (m/s) and the position's standard deviation (m), parallel arrays.
@@ -122,25 +123,20 @@ def place_vehicles(
         age > config.dead_reckoning_s,
     )
     lost = exhausted | (s_std > config.lost_sigma_m)
-    place_p = fleet.place[rows]
-    confident = place_p >= config.confidence
-    columns = (
-        moved.tolist(),
-        v.tolist(),
-        place_p.tolist(),
-        s_std.tolist(),
-        np.maximum(age, 0.0).tolist(),
-        lost.tolist(),
-        confident.tolist(),
-        plain.tolist(),
-        rows.tolist(),
-        when_s.tolist(),
+    confident = fleet.place[rows] >= config.confidence
+    # the status of each plainly placed vehicle (an index into _STATUSES), -1 the others
+    code = np.where(plain, np.where(lost, 2, np.where(confident, 0, 1)), -1).tolist()
+    offsets, speeds, probabilities, sigmas, times = (
+        a.tolist() for a in (moved, v, fleet.place[rows], s_std, when_s)
     )
+    reckoned = np.maximum(age, 0.0).tolist()
+    row_of = rows.tolist()
+    named_lost = fleet.lost
     out: list[Placement] = []
-    rows_of = zip(*columns, strict=True)
-    for i, (off, speed, p, sd, dr, gone, sure, easy, row, t) in enumerate(rows_of):
+    for i, k in enumerate(code):
         hyps = hypotheses[i]
-        if not easy:
+        row = row_of[i]
+        if k < 0:
             out.append(
                 place_one(
                     net,
@@ -149,7 +145,7 @@ def place_vehicles(
                     config,
                     vehicle_ids[i],
                     row,
-                    t,
+                    times[i],
                     (s[i], v[i], s_std[i]),
                     hyps,
                     bases[i],
@@ -157,27 +153,20 @@ def place_vehicles(
             )
             continue
         first = hyps[0]
-        status: PositionStatus
-        if gone or fleet.lost[row] is not None:
-            status = "lost"
-        elif sure:
-            status = "confident"
-        else:
-            status = "ambiguous"
         out.append(
             Placement(
                 vehicle_ids[i],
-                t,
-                status,
+                times[i],
+                "lost" if named_lost[row] is not None else _STATUSES[k],
                 first.edge_id,
                 first.direction,
-                off,
-                speed,
-                p,
-                sd,
+                offsets[i],
+                speeds[i],
+                probabilities[i],
+                sigmas[i],
                 first.wrong_way,
                 hyps,
-                dr,
+                reckoned[i],
             )
         )
     return out

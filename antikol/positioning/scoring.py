@@ -111,9 +111,15 @@ def score_fixes(
     c = config
     n = len(reports)
     hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
-    scales = np.array([c.error_scales(r.fix_quality) for r in reports], dtype=float)
-    sigma = scales[:, 0] * hdop
-    bias_sigma = scales[:, 1] * hdop
+    quality = [r.fix_quality for r in reports]
+    kinds = {q: c.error_scales(q) for q in set(quality)}
+    if len(kinds) == 1:  # (a fleet's receivers mostly report one kind of fix)
+        ((white, bias),) = kinds.values()
+        sigma, bias_sigma = white * hdop, bias * hdop
+    else:
+        scales = np.array([kinds[q] for q in quality], dtype=float)
+        sigma = scales[:, 0] * hdop
+        bias_sigma = scales[:, 1] * hdop
     radius = np.maximum(c.search_radius_m, 4.0 * sigma)
     found = find(xs, ys, radius)
     # one candidate state per (candidate place, running direction)
