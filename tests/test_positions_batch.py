@@ -179,3 +179,22 @@ def test_hypotheses_of_reads_the_filled_slots_of_each_vehicle_in_order(slot_stat
         assert [h.progress_m for h in hyps] == [float(progress[row, k]) for k in slots]
         assert [h.wrong_way_s for h in hyps] == [float(wrong_s[row, k]) for k in slots]
         assert [h.wrong_way for h in hyps] == [not allowed[states[row, k]] for k in slots]
+
+
+def test_several_reports_of_a_vehicle_in_one_call_are_taken_in_their_order(city):
+    """update_many with two reports of each vehicle: the positions of taking them one
+    after the other, one list entry per report (each the vehicle's latest position)."""
+    net, reports = city
+    by_t: dict[float, list] = {}
+    for r in reports:
+        by_t.setdefault(r.t, []).append(r)
+    times = sorted(by_t)
+    one, many = Positioner(net), Positioner(net)
+    for a, b in zip(times[0::2], times[1::2], strict=False):
+        for r in by_t[a] + by_t[b]:
+            one.update(r)
+        got = many.update_many(by_t[a] + by_t[b])
+        latest = {p.vehicle_id: p for p in got}
+        assert [p.vehicle_id for p in got] == [r.vehicle_id for r in by_t[a] + by_t[b]]
+        assert all(got[k] is latest[r.vehicle_id] for k, r in enumerate(by_t[a] + by_t[b]))
+        assert latest == {v: one.position(v) for v in latest}

@@ -188,52 +188,56 @@ class Positioner:
         list of TrackPosition
             In the order of ``reports`` (empty when ``outputs`` is False).
         """
-        seen: Counter[str] = Counter()
+        ids = [r.vehicle_id for r in reports]
         passes: list[list[VehicleReport]] = []
-        for r in reports:
-            k = seen[r.vehicle_id]
-            seen[r.vehicle_id] += 1
-            if k == len(passes):
-                passes.append([])
-            passes[k].append(r)
+        if len(set(ids)) == len(ids):  # one report per vehicle: the usual cycle
+            passes.append(list(reports))
+        else:
+            seen: dict[str, int] = {}
+            for r, vid in zip(reports, ids, strict=True):
+                k = seen[vid] = seen.get(vid, -1) + 1
+                if k == len(passes):
+                    passes.append([])
+                passes[k].append(r)
         # each vehicle's position after its last report here (None: ask again at the end)
         final: dict[str, TrackPosition | None] = {}
         for batch in passes:
             self._update_pass(batch)
             placed = self._remember(batch)
-            for r in batch:
-                final[r.vehicle_id] = placed.get(r.vehicle_id)
+            final.update((r.vehicle_id, placed.get(r.vehicle_id)) for r in batch)
         if not outputs:
             return []
         again = [vid for vid, pos in final.items() if pos is None]
         if again:
             final.update(zip(again, self.positions(again), strict=True))
-        return [pos for r in reports if (pos := final[r.vehicle_id]) is not None]
+        return [pos for vid in ids if (pos := final[vid]) is not None]
 
     def _remember(self, reports: list[VehicleReport]) -> dict[str, TrackPosition]:
         """Place the vehicles at their new reports' times and remember where (the switch
         hold's memory): a function of the reports taken alone, never of which positions
         were asked for, and when (a rejected report changes nothing). Returns the
         positions of the vehicles whose report was taken."""
+        row_of, last = self._row, self._f.last
         vehicle_ids = [
             r.vehicle_id
             for r in reports
-            if (row := self._row.get(r.vehicle_id)) is not None and self._f.last[row] is r
+            if (row := row_of.get(r.vehicle_id)) is not None and last[row] is r
         ]
+        cache, reported, before = self._cache, self._reported, self._reported_before
         for vid in vehicle_ids:
-            self._cache.pop(vid, None)
-            before = self._reported.get(vid)
-            if before is None:
-                self._reported_before.pop(vid, None)
+            cache.pop(vid, None)
+            where = reported.get(vid)
+            if where is None:
+                before.pop(vid, None)
             else:
-                self._reported_before[vid] = before
+                before[vid] = where
         placed: dict[str, TrackPosition] = {}
         for pos in self.positions(vehicle_ids):
             if pos is None:  # pragma: no cover - a taken report leaves a state
                 continue
             placed[pos.vehicle_id] = pos
             if pos.edge_id is not None and pos.direction is not None:
-                self._reported[pos.vehicle_id] = (pos.edge_id, pos.direction)
+                reported[pos.vehicle_id] = (pos.edge_id, pos.direction)
         return placed
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
