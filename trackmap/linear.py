@@ -319,19 +319,21 @@ class _SegmentIndex:
             r = ((px - ax) * ex + (py - ay) * ey) / len2
             across = np.abs(((ay - py) * ex - (ax - px) * ey) / len2) * np.sqrt(len2)
         dist = np.where(degenerate | (r <= 0.0), to_a, np.where(r >= 1.0, to_b, across))
+        # a line is in reach when its nearest segment is: of each (point, line) the first
+        # segment (along the line) at the least distance, among those within the radius
+        near = np.flatnonzero(dist <= radius_m)
+        q, seg, dist, r = q[near], seg[near], dist[near], r[near]
+        key = q * self.n_lines + self.line[seg]
+        order = np.lexsort((seg, dist, key))
+        head = np.ones(len(order), dtype=bool)
+        head[1:] = key[order[1:]] != key[order[:-1]]
+        keep = order[head]  # in the order of the keys: point, then line
         # the projection factor is r (exactly 0 or 1 at the segment's ends, as GEOS's
         # special cases; NaN on a degenerate segment, which ends where it starts)
+        r, seg = r[keep], seg[keep]
         start, length = self.before[seg], self.length[seg]
         with np.errstate(invalid="ignore"):
             measure = np.where(
                 r <= 0.0, start, np.where(r <= 1.0, start + r * length, start + length)
             )
-        # per (point, line) the first segment (along the line) at the least distance
-        key = q * self.n_lines + self.line[seg]
-        order = np.lexsort((seg, dist, key))
-        key = key[order]
-        head = np.ones(len(key), dtype=bool)
-        head[1:] = key[1:] != key[:-1]
-        pick = order[head]
-        keep = pick[dist[pick] <= radius_m]  # in the order of the keys: point, then line
-        return finite[q[keep]], self.line[seg[keep]], measure[keep]
+        return finite[q[keep]], self.line[seg], measure
