@@ -167,7 +167,7 @@ def test_nearest_within_is_shapely_to_the_last_bit(case):
     ``dwithin`` query and :func:`shapely.line_locate_point`, repeated vertices and points
     exactly on a vertex included."""
     lines, x, y, radius = case
-    point, line, offset = PackedLines(lines).nearest_within(x, y, radius)
+    point, line, offset = PackedLines(lines).nearest_within(x, y, radius, index_from=0)
     ref_point, ref_line, ref_offset = _shapely_nearest(lines, x, y, radius)
     assert point.tolist() == ref_point.tolist()
     assert line.tolist() == ref_line.tolist()

@@ -44,11 +44,14 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-__all__ = ["ARRAY_SEARCH_FROM", "PackedLines"]
+__all__ = ["ARRAY_SEARCH_FROM", "SEGMENT_INDEX_FROM", "PackedLines"]
 
 #: Below this many queries one shapely call costs less than the array search (its cost is
 #: mostly per call); the numbers are the same either way.
 ARRAY_SEARCH_FROM = 160
+#: From this many points on, the nearest places are found through the segment index (its
+#: array code costs more per call than one shapely query below it); the same numbers.
+SEGMENT_INDEX_FROM = 12
 #: The segments searched around a point reach this much beyond the radius, m.
 _BOX_MARGIN_M = 1e-6
 
@@ -79,6 +82,7 @@ class PackedLines:
         "_length",
         "_segment",
         "_segments",
+        "_tree",
         "_x",
         "_y",
     )
@@ -122,6 +126,7 @@ class PackedLines:
         self._cum_after: FloatArray = cum_after
         self._length: FloatArray = length
         self._segments: _SegmentIndex | None = None
+        self._tree: shapely.STRtree | None = None
 
     def __len__(self) -> int:
         return len(self._first)
@@ -217,14 +222,21 @@ class PackedLines:
         return x.reshape(shape), y.reshape(shape)
 
     def nearest_within(
-        self, x: FloatArray, y: FloatArray, radius_m: float
+        self,
+        x: FloatArray,
+        y: FloatArray,
+        radius_m: float,
+        *,
+        index_from: int = SEGMENT_INDEX_FROM,
     ) -> tuple[IntArray, IntArray, FloatArray]:
         """Every line within ``radius_m`` of each point, and the distance along it of the
         point's nearest place, as :func:`shapely.line_locate_point` computes it.
 
         The lines near a point are found through an index of their segments, and only
         the segments near it are measured: a large batch costs a few array operations
-        instead of a walk over every segment of every line in reach.
+        instead of a walk over every segment of every line in reach. Fewer points than
+        ``index_from`` go to shapely (a ``dwithin`` query of whole lines and
+        :func:`shapely.line_locate_point`), whose cost per call is the smaller there.
 
         Parameters
         ----------
@@ -232,6 +244,9 @@ class PackedLines:
             The points, m (non-finite: no lines).
         radius_m : float
             Search radius, m.
+        index_from : int, keyword-only
+            From this many points on, the segment index is used (the same rows and
+            numbers either way; tests set it to exercise both).
 
         Returns
         -------
@@ -251,11 +266,27 @@ class PackedLines:
         >>> point.tolist(), line.tolist(), offset.tolist()
         ([0], [0], [3.0])
         """
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        if len(x) < index_from:
+            return self._nearest_by_lines(x, y, float(radius_m))
         if self._segments is None:
             self._segments = _SegmentIndex.build(self)
-        return self._segments.nearest_within(
-            np.asarray(x, dtype=float), np.asarray(y, dtype=float), float(radius_m)
-        )
+        return self._segments.nearest_within(x, y, float(radius_m))
+
+    def _nearest_by_lines(
+        self, x: FloatArray, y: FloatArray, radius_m: float
+    ) -> tuple[IntArray, IntArray, FloatArray]:
+        """:meth:`nearest_within` by shapely: the lines' STRtree and line_locate_point."""
+        if self._tree is None:
+            self._tree = shapely.STRtree(self._geoms)
+        finite = np.isfinite(x) & np.isfinite(y)
+        pts = shapely.points(np.where(finite, x, 0.0), np.where(finite, y, 0.0))
+        pts[~finite] = None
+        point, line = self._tree.query(pts, predicate="dwithin", distance=radius_m)
+        order = np.lexsort((line, point))
+        point, line = point[order].astype(np.int64), line[order].astype(np.int64)
+        return point, line, shapely.line_locate_point(self._geoms[line], pts[point])
 
 
 class _SegmentIndex:
