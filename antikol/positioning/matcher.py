@@ -94,6 +94,8 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 _NEG_INF = -math.inf
 _LOG_2PI = math.log(2.0 * math.pi)
+#: From this many vehicles on, their rows are checked in array operations.
+_ARRAY_CHECKS_FROM = 16
 #: Hypotheses this close (m) across a plain node are the same place.
 _SAME_PLACE_M = 3.0
 
@@ -218,13 +220,13 @@ class Positioner:
         were asked for, and when (a rejected report changes nothing). Returns the
         positions of the vehicles whose report was taken."""
         row_of, last = self._row, self._f.last
-        vehicle_ids = [
-            r.vehicle_id
+        taken = [
+            (r.vehicle_id, row, r)
             for r in reports
             if (row := row_of.get(r.vehicle_id)) is not None and last[row] is r
         ]
         cache, reported, before = self._cache, self._reported, self._reported_before
-        for vid in vehicle_ids:
+        for vid, _, _ in taken:
             cache.pop(vid, None)
             where = reported.get(vid)
             if where is None:
@@ -232,13 +234,37 @@ class Positioner:
             else:
                 before[vid] = where
         placed: dict[str, TrackPosition] = {}
-        for pos in self.positions(vehicle_ids):
-            if pos is None:  # pragma: no cover - a taken report leaves a state
-                continue
+        for pos in self._positions_at_reports(taken):
             placed[pos.vehicle_id] = pos
             if pos.edge_id is not None and pos.direction is not None:
                 reported[pos.vehicle_id] = (pos.edge_id, pos.direction)
         return placed
+
+    def _positions_at_reports(
+        self, taken: list[tuple[str, int, VehicleReport]]
+    ) -> list[TrackPosition]:
+        """:meth:`positions` of vehicles (each once, none cached) at the reports just
+        taken: (id, row, report) of each; the same records, without the look-ups."""
+        f = self._f
+        if len(taken) >= _ARRAY_CHECKS_FROM:
+            rows = np.array([row for _, row, _ in taken], dtype=np.int64)
+            off = (f.unmatched[rows] | (f.hs[rows, 0] < 0) | np.isnan(f.kf.t[rows])).tolist()
+        else:
+            off = [
+                bool(f.unmatched[row] or f.hs[row, 0] < 0 or math.isnan(f.kf.t[row]))
+                for _, row, _ in taken
+            ]
+        out: dict[str, TrackPosition] = {}
+        asked: list[tuple[str, int, float, tuple[int, int] | None]] = []
+        before = self._reported_before
+        for (vid, row, report), unmatched in zip(taken, off, strict=True):
+            if unmatched:
+                out[vid] = self._cache[vid] = unmatched_position(report, report.t)
+            else:
+                asked.append((vid, row, report.t, before.get(vid)))
+        for pos in self._placed(asked):
+            out[pos.vehicle_id] = pos
+        return [out[vid] for vid, _, _ in taken]
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
         """The vehicle's position at time ``t`` (dead-reckoned when later than its report).
@@ -286,8 +312,18 @@ class Positioner:
                 # this one (at this report's time) or at this one (later: dead reckoning)
                 basis = (self._reported_before if when == last.t else self._reported).get(vid)
                 asked.append((vid, row, when, basis))
+        for pos in self._placed(asked):
+            for k in where[pos.vehicle_id]:
+                out[k] = pos
+        return out
+
+    def _placed(
+        self, asked: list[tuple[str, int, float, tuple[int, int] | None]]
+    ) -> list[TrackPosition]:
+        """The track positions of matched vehicles, each once: (id, row, time (s), where
+        it was placed before) of each; kept in the cache."""
         if not asked:
-            return out
+            return []
         rows = np.array([row for _, row, _, _ in asked], dtype=np.int64)
         when_s = np.array([when for _, _, when, _ in asked], dtype=float)
         est = track_estimate(self._f.kf, rows, when_s, self.config.accel_sigma_mps2)
@@ -303,10 +339,9 @@ class Positioner:
             self._hypotheses_of(rows),
             [basis for _, _, _, basis in asked],
         )
-        for pos in track_positions(self.net, places):
+        out = track_positions(self.net, places)
+        for pos in out:
             self._cache[pos.vehicle_id] = pos
-            for k in where[pos.vehicle_id]:
-                out[k] = pos
         return out
 
     def forget(self, vehicle_id: str) -> None:
