@@ -245,15 +245,7 @@ class Positioner:
     ) -> list[TrackPosition]:
         """:meth:`positions` of vehicles (each once, none cached) at the reports just
         taken: (id, row, report) of each; the same records, without the look-ups."""
-        f = self._f
-        if len(taken) >= _ARRAY_CHECKS_FROM:
-            rows = np.array([row for _, row, _ in taken], dtype=np.int64)
-            off = (f.unmatched[rows] | (f.hs[rows, 0] < 0) | np.isnan(f.kf.t[rows])).tolist()
-        else:
-            off = [
-                bool(f.unmatched[row] or f.hs[row, 0] < 0 or math.isnan(f.kf.t[row]))
-                for _, row, _ in taken
-            ]
+        off = self._off_track([row for _, row, _ in taken])
         out: dict[str, TrackPosition] = {}
         asked: list[tuple[str, int, float, tuple[int, int] | None]] = []
         before = self._reported_before
@@ -265,6 +257,15 @@ class Positioner:
         for pos in self._placed(asked):
             out[pos.vehicle_id] = pos
         return [out[vid] for vid, _, _ in taken]
+
+    def _off_track(self, rows: list[int]) -> list[bool]:
+        """Whether each row has no track position: unmatched, without a hypothesis or
+        without an along-track filter (many rows in one array call)."""
+        f = self._f
+        if len(rows) >= _ARRAY_CHECKS_FROM:
+            at = np.array(rows, dtype=np.int64)
+            return list((f.unmatched[at] | (f.hs[at, 0] < 0) | np.isnan(f.kf.t[at])).tolist())
+        return [bool(f.unmatched[r] or f.hs[r, 0] < 0 or math.isnan(f.kf.t[r])) for r in rows]
 
     def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
         """The vehicle's position at time ``t`` (dead-reckoned when later than its report).
@@ -302,7 +303,7 @@ class Positioner:
             cached = self._cache.get(vid)
             if cached is not None and cached.t == when:
                 out[k] = cached
-            elif self._f.unmatched[row] or self._f.hs[row, 0] < 0 or math.isnan(self._f.kf.t[row]):
+            elif self._off_track([row])[0]:
                 out[k] = self._cache[vid] = unmatched_position(last, when)
             elif vid in where:
                 where[vid].append(k)

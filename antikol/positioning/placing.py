@@ -88,31 +88,33 @@ def place_vehicles(
     """
     n = len(vehicle_ids)
     s, v, s_std = estimate
+
+    def one_at_a_time(i: int) -> Placement:
+        return place_one(
+            net,
+            arrivals,
+            fleet,
+            config,
+            vehicle_ids[i],
+            int(rows[i]),
+            float(when_s[i]),
+            (s[i], v[i], s_std[i]),
+            hypotheses[i],
+            bases[i],
+        )
+
     if n < max(array_from, 1):
-        return [
-            place_one(
-                net,
-                arrivals,
-                fleet,
-                config,
-                vehicle_ids[i],
-                int(rows[i]),
-                float(when_s[i]),
-                (s[i], v[i], s_std[i]),
-                hypotheses[i],
-                bases[i],
-            )
-            for i in range(n)
-        ]
+        return [one_at_a_time(i) for i in range(n)]
     state = fleet.hs[rows, 0]
     edge = state >> 1
     direction = 1 - 2 * (state & 1)
     offset = fleet.ho[rows, 0]
     run = s - fleet.z[rows]
-    moved = np.where(np.abs(run) < _NO_MOVE_M, offset, offset + direction * run)
+    still = np.abs(run) < _NO_MOVE_M
+    moved = np.where(still, offset, offset + direction * run)
     length = arrivals.lengths_m[edge]
     past = np.where(direction == 1, moved, length - moved)
-    plain = ((np.abs(run) < _NO_MOVE_M) | ((moved >= 0.0) & (moved <= length))) & ~(
+    plain = (still | ((moved >= 0.0) & (moved <= length))) & ~(
         past + arrivals.nearest_switch_m(edge, direction) <= HOLD_M
     )
     age = when_s - fleet.t_fix[rows]
@@ -134,30 +136,16 @@ def place_vehicles(
     named_lost = fleet.lost
     out: list[Placement] = []
     for i, k in enumerate(code):
-        hyps = hypotheses[i]
-        row = row_of[i]
         if k < 0:
-            out.append(
-                place_one(
-                    net,
-                    arrivals,
-                    fleet,
-                    config,
-                    vehicle_ids[i],
-                    row,
-                    times[i],
-                    (s[i], v[i], s_std[i]),
-                    hyps,
-                    bases[i],
-                )
-            )
+            out.append(one_at_a_time(i))
             continue
+        hyps = hypotheses[i]
         first = hyps[0]
         out.append(
             Placement(
                 vehicle_ids[i],
                 times[i],
-                "lost" if named_lost[row] is not None else _STATUSES[k],
+                "lost" if named_lost[row_of[i]] is not None else _STATUSES[k],
                 first.edge_id,
                 first.direction,
                 offsets[i],
