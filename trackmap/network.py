@@ -299,14 +299,15 @@ class TrackMap:
         p_idx, e_idx, offset = lines.nearest_within(x, y, radius_m)
         length = self._lengths[e_idx]
         # the projected point and half a metre either side, in one search
+        n = len(e_idx)
         xs_, ys_ = lines.interpolate(
-            np.tile(e_idx, 3),
+            np.concatenate((e_idx, e_idx, e_idx)),
             np.concatenate(
-                [offset, np.minimum(offset + 0.5, length), np.maximum(offset - 0.5, 0.0)]
+                (offset, np.minimum(offset + 0.5, length), np.maximum(offset - 0.5, 0.0))
             ),
         )
-        proj_x, ahead_x, behind_x = np.split(xs_, 3)
-        proj_y, ahead_y, behind_y = np.split(ys_, 3)
+        proj_x, ahead_x, behind_x = xs_[:n], xs_[n : 2 * n], xs_[2 * n :]
+        proj_y, ahead_y, behind_y = ys_[:n], ys_[n : 2 * n], ys_[2 * n :]
         tx = ahead_x - behind_x
         ty = ahead_y - behind_y
         dx = x[p_idx] - proj_x

@@ -307,9 +307,13 @@ def score_fixes(
     # the best parent of each candidate state (a slot without a pair only where the
     # vehicle starts afresh, which every use below masks)
     chosen = pair_of[ar, best]
+    has_pair = chosen < len(pc)
+    at_pair = np.where(has_pair, chosen, 0)
 
     def of_best(a: npt.NDArray[Any], empty: float) -> npt.NDArray[Any]:
-        return np.append(a, np.array([empty], dtype=a.dtype))[chosen]
+        if not len(a):
+            return np.full(len(chosen), empty, dtype=a.dtype)
+        return np.where(has_pair, a[at_pair], empty)
 
     new_prog = np.where(use0, 0.0, fleet.hg[prow, best] + of_best(dist, 0.0))
     new_parent = np.where(use0, -1, best)
