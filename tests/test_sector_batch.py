@@ -57,10 +57,7 @@ def test_whole_fleet_hits_equal_the_per_vehicle_rule(seed, n, spread, lat0, d_co
 def test_closing_speeds_of_a_cycle_equal_those_hit_by_hit(seed, n, spread, lat0):
     """One array call for every hit of a cycle gives the numbers of one call per hit (the
     own vehicle at its kept course, else its reported one), bit for bit."""
-    import math
-
-    from antikol.analysis.geometry import closing_speed_mps
-    from antikol.analysis.sector import closing_speeds
+    from antikol.analysis.sector import closing_speeds, hit_closing_speed
 
     reports, courses = _fleet(seed, n, spread, lat0)
     rng = np.random.default_rng(seed + 2)
@@ -76,17 +73,7 @@ def test_closing_speeds_of_a_cycle_equal_those_hit_by_hit(seed, n, spread, lat0)
     assert len(closing) == sum(len(h) for h in hits)
     for own, course, own_hits in zip(reports, courses, hits, strict=True):
         for h in own_hits:
-            bearing = math.radians(h.bearing_deg)
-            expected = float(
-                closing_speed_mps(
-                    h.distance_m * math.sin(bearing),
-                    h.distance_m * math.cos(bearing),
-                    own.speed_mps,
-                    own.course_deg if course is None else course,
-                    by_id[h.vehicle_id].speed_mps,
-                    by_id[h.vehicle_id].course_deg,
-                )
-            )
+            expected = hit_closing_speed(own, course, by_id[h.vehicle_id], h)
             got = closing[(own.vehicle_id, h.vehicle_id)]
             assert got.closing_speed_mps == expected
             assert (got.own, got.other, got.hit) == (own, by_id[h.vehicle_id], h)

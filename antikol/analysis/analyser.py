@@ -47,10 +47,16 @@ from antikol.analysis.assessment import (
 )
 from antikol.analysis.branches import BranchSettings
 from antikol.analysis.conflicts import RuleSettings
-from antikol.analysis.geometry import closing_speed_mps
 from antikol.analysis.pairs import PairEvaluator, PairOutcome, PairSettings
 from antikol.analysis.profiles import BrakingProfile, load_profile
-from antikol.analysis.sector import CourseKeeper, HitClosing, SectorHit, SectorRule, closing_speeds
+from antikol.analysis.sector import (
+    CourseKeeper,
+    HitClosing,
+    SectorHit,
+    SectorRule,
+    closing_speeds,
+    hit_closing_speed,
+)
 from antikol.analysis.threats import suppression_reason, track_threat
 from antikol.analysis.views import CycleViews, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
@@ -694,18 +700,7 @@ class Analyser:
         if known is not None and known[0] is own and known[1] is other and known[2] is hit:
             closing = known[3]  # the cycle's hits, computed in one array call
         else:
-            course = self.courses.course(own.vehicle_id)
-            bearing = math.radians(hit.bearing_deg)
-            closing = float(
-                closing_speed_mps(
-                    hit.distance_m * math.sin(bearing),
-                    hit.distance_m * math.cos(bearing),
-                    own.speed_mps,
-                    own.course_deg if course is None else course,
-                    other.speed_mps,
-                    other.course_deg,
-                )
-            )
+            closing = hit_closing_speed(own, self.courses.course(own.vehicle_id), other, hit)
         detail = (
             f"within {self.sector.d_col_m:g} m and ±{self.sector.half_angle_deg:g}° of own course"
         )

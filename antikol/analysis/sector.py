@@ -14,6 +14,7 @@ vehicles approaching it see it in their own sectors.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -36,7 +37,14 @@ from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
 
-__all__ = ["CourseKeeper", "HitClosing", "SectorHit", "SectorRule", "closing_speeds"]
+__all__ = [
+    "CourseKeeper",
+    "HitClosing",
+    "SectorHit",
+    "SectorRule",
+    "closing_speeds",
+    "hit_closing_speed",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -221,6 +229,27 @@ class HitClosing(NamedTuple):
     closing_speed_mps: float
 
 
+def hit_closing_speed(
+    own: VehicleReport, course_deg: float | None, other: VehicleReport, hit: SectorHit
+) -> float:
+    """The closing speed of one sector hit, m/s (positive when closing).
+
+    The other vehicle's offset from the hit's distance and bearing; the own vehicle at
+    ``course_deg`` (its kept course, degrees; None: the reported one).
+    """
+    bearing = math.radians(hit.bearing_deg)
+    return float(
+        closing_speed_mps(
+            hit.distance_m * math.sin(bearing),
+            hit.distance_m * math.cos(bearing),
+            own.speed_mps,
+            own.course_deg if course_deg is None else course_deg,
+            other.speed_mps,
+            other.course_deg,
+        )
+    )
+
+
 def closing_speeds(
     reports: Sequence[VehicleReport],
     courses: Sequence[float | None],
@@ -228,9 +257,7 @@ def closing_speeds(
 ) -> dict[tuple[str, str], HitClosing]:
     """The closing speed of every hit of a cycle in one array call.
 
-    The numbers are those of :func:`~antikol.analysis.geometry.closing_speed_mps` called
-    hit by hit (the other vehicle's offset from the hit's distance and bearing, the own
-    vehicle at its kept course).
+    The numbers are those of :func:`hit_closing_speed` called hit by hit.
 
     Parameters
     ----------

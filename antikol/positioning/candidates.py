@@ -78,20 +78,17 @@ def find_candidates(
     and on a loop the nearest point of its other half too (where a turning loop closes,
     its start and end lie metres apart and the fix may belong to either)."""
     batch = net.candidates_batch_xy(xs, ys, float(radius.max()))  # by fix, then edge
-    order = np.arange(len(batch.point))
-    pt = batch.point[order]
     # a fix beyond an edge's end projects onto that end: the neighbouring edge holds it
     # (a candidate there would turn an along-track miss into a small "lateral" offset)
-    overshoot = np.sqrt(np.maximum(batch.distance_m[order] ** 2 - batch.lateral_m[order] ** 2, 0.0))
-    within = (batch.distance_m[order] <= radius[pt]) & (overshoot <= END_OVERSHOOT_M)
-    order, pt = order[within], pt[within]
+    overshoot = np.sqrt(np.maximum(batch.distance_m**2 - batch.lateral_m**2, 0.0))
+    within = (batch.distance_m <= radius[batch.point]) & (overshoot <= END_OVERSHOOT_M)
     found = Candidates(
-        pt,
-        batch.edge_id[order],
-        batch.offset_m[order],
+        batch.point[within],
+        batch.edge_id[within],
+        batch.offset_m[within],
         # beyond an end by less than the tolerance: the whole distance is the offset
-        np.copysign(batch.distance_m[order], batch.lateral_m[order]),
-        batch.heading_deg[order],
+        np.copysign(batch.distance_m[within], batch.lateral_m[within]),
+        batch.heading_deg[within],
     )
     if not loops:
         return found

@@ -125,11 +125,12 @@ def place_vehicles(
         age > config.dead_reckoning_s,
     )
     lost = exhausted | (s_std > config.lost_sigma_m)
-    confident = fleet.place[rows] >= config.confidence
+    place_p = fleet.place[rows]
+    confident = place_p >= config.confidence
     # the status of each plainly placed vehicle (an index into _STATUSES), -1 the others
     code = np.where(plain, np.where(lost, 2, np.where(confident, 0, 1)), -1).tolist()
     offsets, speeds, probabilities, sigmas, times = (
-        a.tolist() for a in (moved, v, fleet.place[rows], s_std, when_s)
+        a.tolist() for a in (moved, v, place_p, s_std, when_s)
     )
     reckoned = np.maximum(age, 0.0).tolist()
     row_of = rows.tolist()
