@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from antikol.analysis.runs import expand_rows, first_worst, order_by, run_starts
+from antikol.analysis.runs import expand_rows, first_least, order_by, run_starts, severity_keys
 
 
 @st.composite
@@ -38,21 +38,44 @@ def test_order_by_unique_keys_sorts_as_the_stable_order(drawn) -> None:
     assert order_by([*keys, row], [*sizes, max(n, 1)], unique=True).tolist() == expected
 
 
-@given(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 3)), max_size=30))
-def test_run_starts_and_first_worst_against_a_loop(rows) -> None:
+_MARGINS = st.sampled_from([-3.5, -0.0, 0.0, 0.5, 2.0, 1e-300, -1e300, 7.25])
+
+
+@given(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 3), _MARGINS), max_size=30))
+def test_run_starts_and_most_severe_against_a_loop(rows) -> None:
     rows = sorted(rows, key=lambda r: r[0])
     group = np.array([r[0] for r in rows], dtype=np.int64)
     rank = np.array([r[1] for r in rows], dtype=np.int64)
-    margin = np.array([float((7 * k) % 3) for k in range(len(rows))])
+    margin = np.array([r[2] for r in rows], dtype=np.float64)
     starts = run_starts(group)
     assert starts.tolist() == [k for k in range(len(rows)) if k == 0 or group[k] != group[k - 1]]
+    keys = severity_keys(rank, margin)
     eligible = rank != 2
-    got = first_worst(np.arange(len(rows)), rank, margin, starts, eligible)
     bounds = [*starts.tolist(), len(rows)]
-    for g, (lo, hi) in enumerate(itertools.pairwise(bounds)):
-        pool = [k for k in range(lo, hi) if eligible[k]]
-        want = min(pool, key=lambda k: (-rank[k], margin[k], k)) if pool else -1
-        assert got[g] == want
+    for choose, mask in (
+        (first_least(keys, starts, eligible), eligible),
+        (first_least(keys, starts), None),
+    ):
+        for g, (lo, hi) in enumerate(itertools.pairwise(bounds)):
+            pool = [k for k in range(lo, hi) if mask is None or mask[k]]
+            # the most severe: highest rank, then smallest margin (-0.0 == 0.0), then first
+            want = min(pool, key=lambda k: (-rank[k], margin[k], k)) if pool else -1
+            assert choose[g] == want
+
+
+@given(st.lists(st.tuples(st.integers(0, 3), _MARGINS), max_size=30))
+def test_severity_keys_order_rows_as_rank_then_margin(rows) -> None:
+    rank = np.array([r[0] for r in rows], dtype=np.int64)
+    margin = np.array([r[1] for r in rows], dtype=np.float64)
+    keys = severity_keys(rank, margin)
+    for i, j in itertools.product(range(len(rows)), repeat=2):
+        a, b = (-rank[i], margin[i]), (-rank[j], margin[j])
+        assert (keys[i] < keys[j]) == (a < b)
+        assert (keys[i] == keys[j]) == (a == b)
+    # dense: every key from 0 to the number of distinct rows less one
+    assert sorted(set(keys.tolist())) == list(
+        range(len({(-r, m) for r, m in zip(rank.tolist(), margin.tolist(), strict=True)}))
+    )
 
 
 def test_expand_rows_pairs_each_row_with_its_targets() -> None:

@@ -35,11 +35,12 @@ import numpy.typing as npt
 from antikol.analysis.conflicts import Finding, RuleSettings
 from antikol.analysis.runs import (
     expand_rows,
-    first_worst,
+    first_least,
     group_of,
     max_of_runs,
     order_by,
     run_starts,
+    severity_keys,
 )
 from antikol.analysis.views import CycleViews, VehicleView
 from antikol.kinds import LEVELS, Level, ThreatKind
@@ -196,9 +197,18 @@ class PairEvaluator:
         if owners is not None:
             wanted = set(owners)
             is_owner = np.array([v.vehicle_id in wanted for v in flat.views], dtype=bool)
-        found, path_rows = self._conflict_paths(flat, is_owner)
-        on_track = self._on_track(flat, is_owner, found)
-        return self._decide(flat, found, path_rows, on_track)
+        found, at_conflicts = self._conflict_findings(flat, is_owner)
+        on_track, located = self._on_track(flat, is_owner)
+        first_located = _append(found, on_track)
+        # one severity order for every finding of the time: the summaries and the decision
+        # compare rows of both kinds
+        severity = severity_keys(found.rank, found.margin)
+        path_rows = self._conflict_paths(flat, found, severity, at_conflicts)
+        index = first_located + np.arange(len(on_track.rank))
+        located["summary"] = self._summaries(
+            found, severity, np.ones(len(index)), located.pop("trusted"), None, rows=index
+        )
+        return self._decide(flat, found, severity, path_rows, located)
 
     # -- flat tables ---------------------------------------------------------------------
     def _way(self, conflict_id: int, frm: int, to: int) -> tuple[float, float, int]:
@@ -358,8 +368,11 @@ class PairEvaluator:
         return _Flat(views, paths, veh, hyp, path_table, app, link, step)
 
     # -- merges and crossings ------------------------------------------------------------
-    def _conflict_paths(self, flat: _Flat, is_owner: BoolArray) -> tuple[_Findings, dict[str, Any]]:
-        """Findings at conflict points and their summaries per (own path, other hypothesis)."""
+    def _conflict_findings(
+        self, flat: _Flat, is_owner: BoolArray
+    ) -> tuple[_Findings, dict[str, Any]]:
+        """Findings at conflict points, in the order (own approach, other approach), with
+        each row's own approach, other hypothesis, weight of the other's way and trust."""
         app, hyp, veh, r = flat.app, flat.hyp, flat.veh, self.rules
         n_app = len(app["hyp"])
         rows = np.arange(n_app)
@@ -415,10 +428,19 @@ class PairEvaluator:
             ov, tv, np.where(merge, _MERGE, _CROSSING), rank, trusted,
             gap, gap_eff - warning, closing, ttc,
         )  # fmt: skip
+        return found, {"a": a, "g": app["hyp"][b], "weight": app["prob"][b], "trusted": trusted}
+
+    def _conflict_paths(
+        self, flat: _Flat, found: _Findings, severity: IntArray, rows: dict[str, Any]
+    ) -> dict[str, Any]:
+        """Summaries of the conflict findings (the first rows of ``found``) per (own path,
+        other hypothesis)."""
+        a, g = rows["a"], rows["g"]
         # per own approach and other hypothesis: the most probable way of each level
-        g = app["hyp"][b]
         starts = run_starts(a, g)
-        summary = self._summaries(found, app["prob"][b], trusted, starts)
+        summary = self._summaries(
+            found, severity, rows["weight"], rows["trusted"], starts, rows=np.arange(len(a))
+        )
         s_app, s_g = a[starts], g[starts]
         # ... per own path and other hypothesis: every approach of the path, in order
         link = flat.link
@@ -436,12 +458,13 @@ class PairEvaluator:
         )
         l_path, s_hyp, s_row = l_path[sort], s_hyp[sort], s_row[sort]
         groups = run_starts(l_path, s_hyp)
-        per_path = _combine(found, summary, s_row, groups)
-        return found, {"path": l_path[groups], "g": s_hyp[groups], "summary": per_path}
+        per_path = _combine(severity, summary, s_row, groups)
+        return {"path": l_path[groups], "g": s_hyp[groups], "summary": per_path}
 
     # -- rear-end and head-on ----------------------------------------------------------
-    def _on_track(self, flat: _Flat, is_owner: BoolArray, found: _Findings) -> dict[str, Any]:
-        """Other hypotheses standing on own paths: (path, hypothesis) rows and findings."""
+    def _on_track(self, flat: _Flat, is_owner: BoolArray) -> tuple[_Findings, dict[str, Any]]:
+        """Other hypotheses standing on own paths: their findings, and for each the own
+        path, the other hypothesis, whether the placements are possible and trust."""
         step, hyp, veh, r = flat.step, flat.hyp, flat.veh, self.rules
         s_hyp = flat.path["hyp"][step["path"]]
         mine = np.flatnonzero(is_owner[hyp["veh"][s_hyp]])
@@ -505,25 +528,22 @@ class PairEvaluator:
             ov, tv, np.where(same_way, _REAR_END, _HEAD_ON), rank, trusted,
             gap, gap_eff - warning, closing, ttc,
         )  # fmt: skip
-        first_row = _append(found, rows)
-        index = first_row + np.arange(len(gap))
-        one = np.ones(len(gap))
-        summary = self._summaries(found, one, trusted, None, rows=index)
-        return {"path": p, "g": g, "possible": possible, "summary": summary}
+        return rows, {"path": p, "g": g, "possible": possible, "trusted": trusted}
 
     # -- combining -------------------------------------------------------------------------
     def _summaries(
         self,
         found: _Findings,
+        severity: IntArray,
         weight: FloatArray,
         trusted: BoolArray,
         starts: IntArray | None,
         *,
-        rows: IntArray | None = None,
+        rows: IntArray,
     ) -> _Summaries:
-        """Per group of finding rows (``starts``; None: one row per group)."""
+        """Per group of the finding rows ``rows`` (``starts``; None: one row per group)."""
         st = self.settings
-        idx = np.arange(len(found.rank)) if rows is None else rows
+        idx = rows
         rank, margin, closing = found.rank[idx], found.margin[idx], found.closing[idx]
         alarm = rank >= _WARNING
         hold = (
@@ -544,19 +564,23 @@ class PairEvaluator:
                 np.where(alarm, idx, -1),
             )
         zero = np.zeros_like(weight)
+        keys = severity[idx]
+        worst = first_least(keys, starts)
+        worst_alarm = first_least(keys, starts, alarm)
         return _Summaries(
             max_of_runs(weight, starts),
             max_of_runs(np.where(alarm, weight, zero), starts),
             max_of_runs(np.where(rank == _EMERGENCY, weight, zero), starts),
             max_of_runs(np.where(hold, weight, zero), starts),
-            first_worst(idx, rank, margin, starts, np.ones(len(idx), dtype=bool)),
-            first_worst(idx, rank, margin, starts, alarm),
+            idx[worst],
+            np.where(worst_alarm >= 0, idx[worst_alarm], -1),
         )
 
     def _decide(
         self,
         flat: _Flat,
         found: _Findings,
+        severity: IntArray,
         conflict_rows: dict[str, Any],
         on_track: dict[str, Any],
     ) -> dict[str, dict[str, PairOutcome]]:
@@ -591,16 +615,7 @@ class PairEvaluator:
 
         any_w, alarm_w = total(summary.any), total(summary.alarm)
         emergency_w, hold_w = total(summary.emergency), total(summary.hold)
-        pos = np.arange(len(path))
-        worst_at = first_worst(
-            pos, found.rank[summary.worst], found.margin[summary.worst], starts,
-            np.ones(len(pos), dtype=bool),
-        )  # fmt: skip
-        has_alarm = summary.worst_alarm >= 0
-        alarm_rows = np.where(has_alarm, summary.worst_alarm, 0)
-        alarm_at = first_worst(
-            pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm
-        )
+        worst_at, alarm_at = _most_severe(severity, summary, starts)
         # the shown row of each group: its most severe alarm-level finding when the alarm
         # weight is reached, else its most severe finding (shown as an advisory at most)
         raised = (alarm_at >= 0) & (
@@ -650,17 +665,22 @@ def _pick(s: _Summaries, index: Any) -> _Summaries:
     return _Summaries(*(getattr(s, f)[index] for f in _FIELDS))
 
 
-def _combine(found: _Findings, parts: _Summaries, rows: IntArray, starts: IntArray) -> _Summaries:
+def _most_severe(
+    severity: IntArray, parts: _Summaries, starts: IntArray
+) -> tuple[IntArray, IntArray]:
+    """Per group of summaries (``starts``) the position of the first with the most severe
+    worst row, and of the first with the most severe alarm-level row (-1: none)."""
+    worst_at = first_least(severity[parts.worst], starts)
+    has_alarm = parts.worst_alarm >= 0
+    alarm_keys = severity[np.where(has_alarm, parts.worst_alarm, 0)]
+    return worst_at, first_least(alarm_keys, starts, has_alarm)
+
+
+def _combine(severity: IntArray, parts: _Summaries, rows: IntArray, starts: IntArray) -> _Summaries:
     """Summaries of consecutive parts (``_Summary.add`` in order): maxima of the weights,
     the first most severe of the worst rows."""
     sel = _pick(parts, rows)
-    pos = np.arange(len(rows))
-    worst_at = first_worst(
-        pos, found.rank[sel.worst], found.margin[sel.worst], starts, np.ones(len(pos), bool)
-    )
-    has_alarm = sel.worst_alarm >= 0
-    alarm_rows = np.where(has_alarm, sel.worst_alarm, 0)
-    alarm_at = first_worst(pos, found.rank[alarm_rows], found.margin[alarm_rows], starts, has_alarm)
+    worst_at, alarm_at = _most_severe(severity, sel, starts)
     return _Summaries(
         max_of_runs(sel.any, starts),
         max_of_runs(sel.alarm, starts),

@@ -20,7 +20,15 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["expand_rows", "first_worst", "group_of", "max_of_runs", "order_by", "run_starts"]
+__all__ = [
+    "expand_rows",
+    "first_least",
+    "group_of",
+    "max_of_runs",
+    "order_by",
+    "run_starts",
+    "severity_keys",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -87,18 +95,48 @@ def max_of_runs(x: FloatArray, starts: IntArray) -> FloatArray:
     return np.maximum.reduceat(x, starts) if len(starts) else x[:0].copy()
 
 
-def first_worst(
-    idx: IntArray, rank: IntArray, margin: FloatArray, starts: IntArray, eligible: BoolArray
-) -> IntArray:
-    """Per group (``starts``) the position of the most severe eligible row — highest rank,
-    then smallest margin, then first — or -1 when none is eligible."""
-    n = len(idx)
+def severity_keys(rank: IntArray, margin: FloatArray) -> IntArray:
+    """Dense integer keys of rows by severity: the highest ``rank`` first, then the
+    smallest ``margin``; rows equal in both share a key (smaller: more severe).
+
+    One float sort and one stable sort of a small integer (a radix sort) instead of a
+    lexicographic sort; the keys let :func:`first_least` find each group's most severe row
+    with a single reduction. ``-0.0`` and ``0.0`` compare equal, as they do as floats.
+
+    >>> severity_keys(np.array([1, 3, 1, 3]), np.array([2.0, 5.0, -1.0, 5.0])).tolist()
+    [2, 0, 1, 0]
+    """
+    n = len(rank)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    by_margin = np.argsort(margin)
+    lowered = int(rank.max()) - rank[by_margin]
+    if int(lowered.max()) < 2**15:
+        lowered = lowered.astype(np.int16)  # numpy sorts small integers by radix
+    order = by_margin[np.argsort(lowered, kind="stable")]
+    r, m = rank[order], margin[order]
+    change = np.zeros(n, dtype=np.int64)
+    change[1:] = (r[1:] != r[:-1]) | (m[1:] != m[:-1])
+    keys = np.empty(n, dtype=np.int64)
+    keys[order] = np.cumsum(change)
+    return keys
+
+
+def first_least(keys: IntArray, starts: IntArray, eligible: BoolArray | None = None) -> IntArray:
+    """Per group (``starts``) the position of the first eligible row with the least key,
+    or -1 when none is eligible (with :func:`severity_keys`: the most severe row — highest
+    rank, then smallest margin, then first).
+
+    >>> first_least(np.array([4, 2, 2, 7, 5]), np.array([0, 3])).tolist()
+    [1, 4]
+    """
+    n = len(keys)
     if n == 0 or len(starts) == 0:
         return np.zeros(len(starts), dtype=np.int64)
-    group = group_of(n, starts)
-    top = np.maximum.reduceat(np.where(eligible, rank, -1), starts)
-    best = eligible & (rank == top[group])
-    tight = np.minimum.reduceat(np.where(best, margin, np.inf), starts)
-    best &= margin == tight[group]
-    first = np.minimum.reduceat(np.where(best, np.arange(n), n), starts)
-    return np.where(top >= 0, first, -1)
+    # (key, position) folded into one integer: position < n keeps the order of pairs
+    combined = keys * n + np.arange(n)
+    none = np.iinfo(np.int64).max
+    if eligible is not None:
+        combined = np.where(eligible, combined, none)
+    least = np.minimum.reduceat(combined, starts)
+    return np.where(least == none, -1, least % n)
