@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection
 from dataclasses import dataclass, fields
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -238,74 +239,29 @@ class PairEvaluator:
             if view.hyps:
                 views.append(view)
                 accel.append(min(merge_accel, traction_mps2(view.vehicle_id)))
-        h_veh: list[int] = []
-        h_prob: list[float] = []
-        h_trusted: list[bool] = []
-        h_edge: list[int] = []
-        h_off: list[float] = []
-        h_dir: list[int] = []
-        p_hyp: list[int] = []
-        p_prob: list[float] = []
-        paths: list[Path] = []
-        a_hyp: list[int] = []
-        a_cid: list[int] = []
-        a_dist: list[float] = []
-        a_from: list[int] = []
-        a_to: list[int] = []
-        a_prob: list[float] = []
-        a_before: list[float] = []
-        a_after: list[float] = []
-        a_code: list[int] = []
-        l_path: list[int] = []
-        l_app: list[int] = []
-        s_path: list[int] = []
-        s_edge: list[int] = []
-        s_enter: list[float] = []
-        s_exit: list[float] = []
-        s_start: list[float] = []
-        s_dir: list[int] = []
+        hyps = [h for view in views for h in view.hyps]
+        n_hyps_of = [len(view.hyps) for view in views]
+        paths: list[Path] = [p for h in hyps for p in h.paths]
+        n_paths_of = [len(h.paths) for h in hyps]
+        approaches = [ap for h in hyps for ap in h.approaches]
+        n_apps_of = np.array([len(h.approaches) for h in hyps], dtype=np.int64)
+        path_apps = [ways for h in hyps for ways in h.path_approaches]
+        n_links_of = [len(ways) for ways in path_apps]
+        steps = [st for p in paths for st in p.steps]
+        n_steps_of = [len(p.steps) for p in paths]
+        p_hyp = _owner_of(n_paths_of)
+        p_prob = np.array([pi for h in hyps for pi in h.path_probability], dtype=np.float64)
+        # links: each path's approaches, numbered over the whole time (hypothesis's first on)
+        first_app = np.cumsum(n_apps_of) - n_apps_of
+        l_path = _owner_of(n_links_of)
+        l_app = np.array([k for ways in path_apps for k in ways], dtype=np.int64)
+        l_app += first_app[p_hyp[l_path]]
+        # the most probable path through each approach (fmax: a nan probability never wins,
+        # as ``pi > best`` never holds for it)
+        a_prob = np.zeros(len(approaches))
+        np.fmax.at(a_prob, l_app, p_prob[l_path])
         way = self._way
-        for vi, view in enumerate(views):
-            for h in view.hyps:
-                hr = len(h_veh)
-                h_veh.append(vi)
-                h_prob.append(h.probability)
-                h_trusted.append(h.trusted)
-                h_edge.append(h.edge_id)
-                h_off.append(h.offset_m)
-                h_dir.append(int(h.direction))
-                base = len(a_hyp)
-                best = [0.0] * len(h.approaches)
-                for path, pi, ways in zip(
-                    h.paths, h.path_probability, h.path_approaches, strict=True
-                ):
-                    pr = len(p_hyp)
-                    p_hyp.append(hr)
-                    p_prob.append(pi)
-                    paths.append(path)
-                    for k in ways:
-                        l_path.append(pr)
-                        l_app.append(base + k)
-                        if pi > best[k]:
-                            best[k] = pi
-                    for st in path.steps:
-                        s_path.append(pr)
-                        s_edge.append(st.edge_id)
-                        s_enter.append(st.enter_offset_m)
-                        s_exit.append(st.exit_offset_m)
-                        s_start.append(st.start_m)
-                        s_dir.append(int(st.direction))
-                for ap, prob in zip(h.approaches, best, strict=True):
-                    before, after, code = way(ap.conflict_id, ap.from_edge, ap.to_edge)
-                    a_hyp.append(hr)
-                    a_cid.append(ap.conflict_id)
-                    a_dist.append(ap.distance_m)
-                    a_from.append(ap.from_edge)
-                    a_to.append(ap.to_edge)
-                    a_prob.append(prob)
-                    a_before.append(before)
-                    a_after.append(after)
-                    a_code.append(code)
+        ways = [way(ap.conflict_id, ap.from_edge, ap.to_edge) for ap in approaches]
         f8, i8 = np.float64, np.int64
         veh = {
             "speed": np.array([v.speed_mps for v in views], dtype=f8),
@@ -321,29 +277,29 @@ class PairEvaluator:
             ),
         }
         hyp = {
-            "veh": np.array(h_veh, dtype=i8),
-            "prob": np.array(h_prob, dtype=f8),
-            "trusted": np.array(h_trusted, dtype=bool),
-            "edge": np.array(h_edge, dtype=i8),
-            "off": np.array(h_off, dtype=f8),
-            "dir": np.array(h_dir, dtype=i8),
+            "veh": _owner_of(n_hyps_of),
+            "prob": np.array([h.probability for h in hyps], dtype=f8),
+            "trusted": np.array([h.trusted for h in hyps], dtype=bool),
+            "edge": np.array([h.edge_id for h in hyps], dtype=i8),
+            "off": np.array([h.offset_m for h in hyps], dtype=f8),
+            "dir": np.array([h.direction for h in hyps], dtype=i8),
         }
         app: dict[str, Any] = {
-            "hyp": np.array(a_hyp, dtype=i8),
-            "cid": np.array(a_cid, dtype=i8),
-            "from": np.array(a_from, dtype=i8),
-            "to": np.array(a_to, dtype=i8),
-            "prob": np.array(a_prob, dtype=f8),
-            "code": np.array(a_code, dtype=i8),
+            "hyp": _owner_of(n_apps_of),
+            "cid": _column(approaches, "conflict_id", i8),
+            "from": _column(approaches, "from_edge", i8),
+            "to": _column(approaches, "to_edge", i8),
+            "prob": a_prob,
+            "code": np.array([w[2] for w in ways], dtype=i8),
         }
         # the ways through the fouling areas (conflicts.approach) and the earliest
         # arrivals there (conflicts.earliest_arrival_s), with the scalar rules' operations
         av = hyp["veh"][app["hyp"]]
-        front = np.array(a_dist, dtype=f8) - veh["front"][av]
+        front = _column(approaches, "distance_m", f8) - veh["front"][av]
         length = veh["front"][av] + veh["rear"][av]
-        app["enter"] = front - np.array(a_before, dtype=f8)
+        app["enter"] = front - np.array([w[0] for w in ways], dtype=f8)
         app["point"] = front
-        app["clear"] = front + np.array(a_after, dtype=f8) + length
+        app["clear"] = front + np.array([w[1] for w in ways], dtype=f8) + length
         app["arrival"] = _arrival_s(
             app["enter"],
             veh["speed"][av],
@@ -353,17 +309,17 @@ class PairEvaluator:
         app["veh"] = av
         # merges: a conflict point is a merge for every way through it
         app["merge"] = self._merges[app["cid"]]
-        path_table = {"hyp": np.array(p_hyp, dtype=i8), "prob": np.array(p_prob, dtype=f8)}
-        link = {"path": np.array(l_path, dtype=i8), "app": np.array(l_app, dtype=i8)}
-        enter, exit_ = np.array(s_enter, dtype=f8), np.array(s_exit, dtype=f8)
+        path_table = {"hyp": p_hyp, "prob": p_prob}
+        link = {"path": l_path, "app": l_app}
+        enter, exit_ = _column(steps, "enter_offset_m", f8), _column(steps, "exit_offset_m", f8)
         step = {
-            "path": np.array(s_path, dtype=i8),
-            "edge": np.array(s_edge, dtype=i8),
+            "path": _owner_of(n_steps_of),
+            "edge": _column(steps, "edge_id", i8),
             "enter": enter,
             "lo": np.minimum(enter, exit_),
             "hi": np.maximum(enter, exit_),
-            "start": np.array(s_start, dtype=f8),
-            "dir": np.array(s_dir, dtype=i8),
+            "start": _column(steps, "start_m", f8),
+            "dir": _column(steps, "direction", i8),
         }
         return _Flat(views, paths, veh, hyp, path_table, app, link, step)
 
@@ -659,6 +615,17 @@ class PairEvaluator:
 
 
 _FIELDS = ("any", "alarm", "emergency", "hold", "worst", "worst_alarm")
+
+
+def _owner_of(counts: list[int] | IntArray) -> IntArray:
+    """For consecutive runs of ``counts[k]`` rows, the run ``k`` of each row."""
+    sizes = np.asarray(counts, dtype=np.int64)
+    return np.repeat(np.arange(len(sizes)), sizes)
+
+
+def _column(records: list[Any], name: str, dtype: type) -> npt.NDArray[Any]:
+    """One attribute of every record as an array."""
+    return np.fromiter(map(attrgetter(name), records), dtype=dtype, count=len(records))
 
 
 def _pick(s: _Summaries, index: Any) -> _Summaries:
