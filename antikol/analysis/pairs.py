@@ -348,7 +348,7 @@ class PairEvaluator:
         fa, ta, fb, tb = app["from"][a], app["to"][a], app["from"][b], app["to"][b]
         shared = (fa == fb) | (fa == tb) | (ta == fb) | (ta == tb)
         keep &= np.where(merge, (ca >= 0) & (cb >= 0) & (ca != cb), ~shared)
-        a, b, merge = a[keep], b[keep], merge[keep]
+        a, b, merge = _kept(keep, a, b, merge)
         ov, tv = app["veh"][a], app["veh"][b]
         v_own, v_other = veh["speed"][ov], veh["speed"][tv]
         standing = v_own < r.standing_speed_mps
@@ -367,7 +367,7 @@ class PairEvaluator:
             & np.isfinite(other_latest_s)
         )
         keep &= ~too_late
-        a, b, merge, ov, tv, standing = (x[keep] for x in (a, b, merge, ov, tv, standing))
+        a, b, merge, ov, tv, standing = _kept(keep, a, b, merge, ov, tv, standing)
         v_own = veh["speed"][ov]
         gap = np.maximum(app["enter"][a], 0.0)
         sigma = _pair_sigma(veh["sigma"][ov], veh["sigma"][tv])
@@ -436,7 +436,7 @@ class PairEvaluator:
             & (step["lo"][s] - 1e-9 <= off)
             & (off <= step["hi"][s] + 1e-9)
         )
-        s, g, h, off = s[keep], g[keep], h[keep], off[keep]
+        s, g, h, off = _kept(keep, s, g, h, off)
         p = step["path"][s]
         # the first step of each path on the other's edge (path order)
         sort = order_by(
@@ -545,9 +545,9 @@ class PairEvaluator:
         # a pair judged on a path by the other standing on it is judged by nothing else there
         located = on_track["path"] * n_hyp + on_track["g"]
         c_key = conflict_rows["path"] * n_hyp + conflict_rows["g"]
-        free = ~np.isin(c_key, located)
+        free = np.flatnonzero(~_member(c_key, located))
         cs, ts = conflict_rows["summary"], on_track["summary"]
-        possible = on_track["possible"]
+        possible = np.flatnonzero(on_track["possible"])
         path = np.concatenate([conflict_rows["path"][free], on_track["path"][possible]])
         g = np.concatenate([conflict_rows["g"][free], on_track["g"][possible]])
         parts = [_pick(cs, free), _pick(ts, possible)]
@@ -615,6 +615,23 @@ class PairEvaluator:
 
 
 _FIELDS = ("any", "alarm", "emergency", "hold", "worst", "worst_alarm")
+
+
+def _member(keys: IntArray, among: IntArray) -> BoolArray:
+    """Whether each key is one of ``among`` (:func:`numpy.isin` by a binary search in the
+    sorted ``among``, which is cheaper when it is the shorter)."""
+    if len(among) == 0:
+        return np.zeros(len(keys), dtype=bool)
+    ordered = np.sort(among)
+    at = np.minimum(np.searchsorted(ordered, keys), len(ordered) - 1)
+    return ordered[at] == keys
+
+
+def _kept(keep: BoolArray, *columns: npt.NDArray[Any]) -> list[npt.NDArray[Any]]:
+    """The rows of ``columns`` where ``keep`` holds (a take by the kept positions: numpy's
+    boolean indexing of a large, mixed mask costs several times more)."""
+    at = np.flatnonzero(keep)
+    return [np.take(c, at) for c in columns]
 
 
 def _owner_of(counts: list[int] | IntArray) -> IntArray:
