@@ -1,5 +1,7 @@
 """trackmap.linear: points along many lines, the same numbers as shapely (GEOS)."""
 
+from unittest import mock
+
 import numpy as np
 import pytest
 import shapely
@@ -7,6 +9,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import trackmap
+from trackmap import linear
 from trackmap.linear import PackedLines
 
 coordinate = st.floats(-5000.0, 5000.0, allow_nan=False, allow_infinity=False)
@@ -167,11 +170,14 @@ def test_nearest_within_is_shapely_to_the_last_bit(case):
     ``dwithin`` query and :func:`shapely.line_locate_point`, repeated vertices and points
     exactly on a vertex included."""
     lines, x, y, radius = case
-    point, line, offset = PackedLines(lines).nearest_within(x, y, radius, index_from=0)
     ref_point, ref_line, ref_offset = _shapely_nearest(lines, x, y, radius)
-    assert point.tolist() == ref_point.tolist()
-    assert line.tolist() == ref_line.tolist()
-    assert same_bits(offset, ref_offset)
+    # the keys folded into one integer, and (as for a city's worth of points) sorted apart
+    for fold_limit in (2**62, 1):
+        with mock.patch.object(linear, "_FOLD_LIMIT", fold_limit):
+            point, line, offset = PackedLines(lines).nearest_within(x, y, radius, index_from=0)
+        assert point.tolist() == ref_point.tolist()
+        assert line.tolist() == ref_line.tolist()
+        assert same_bits(offset, ref_offset)
 
 
 def test_nearest_within_on_the_embedded_map_to_the_last_bit():

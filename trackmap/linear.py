@@ -54,6 +54,8 @@ ARRAY_SEARCH_FROM = 160
 SEGMENT_INDEX_FROM = 12
 #: The segments searched around a point reach this much beyond the radius, m.
 _BOX_MARGIN_M = 1e-6
+#: (point, line, segment) keys are folded into one int64 below this product of counts.
+_FOLD_LIMIT = 2**62
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -354,11 +356,7 @@ class _SegmentIndex:
         # segment (along the line) at the least distance, among those within the radius
         near = np.flatnonzero(dist <= radius_m)
         q, seg, dist, r = q[near], seg[near], dist[near], r[near]
-        key = q * self.n_lines + self.line[seg]
-        order = np.lexsort((seg, dist, key))
-        head = np.ones(len(order), dtype=bool)
-        head[1:] = key[order[1:]] != key[order[:-1]]
-        keep = order[head]  # in the order of the keys: point, then line
+        keep = self._first_nearest(q, seg, dist, len(x))  # by point, then line
         # the projection factor is r (exactly 0 or 1 at the segment's ends, as GEOS's
         # special cases; NaN on a degenerate segment, which ends where it starts)
         r, seg = r[keep], seg[keep]
@@ -368,3 +366,31 @@ class _SegmentIndex:
                 r <= 0.0, start, np.where(r <= 1.0, start + r * length, start + length)
             )
         return finite[q[keep]], self.line[seg], measure
+
+    def _first_nearest(
+        self, q: IntArray, seg: IntArray, dist: FloatArray, n_points: int
+    ) -> IntArray:
+        """Of each (point, line) the row of its first segment at the least distance, in
+        the order of (point, line).
+
+        Rows sorted once by (point, line, segment) folded into one integer (a point meets
+        a segment at most once, so the keys are unique), then the least distance of each
+        run and its first row; several times cheaper than a lexicographic sort that takes
+        the distance as a key.
+        """
+        if len(q) == 0:
+            return np.zeros(0, dtype=np.int64)
+        key = q * self.n_lines + self.line[seg]
+        n_segments = len(self.line)
+        if n_points * self.n_lines * n_segments >= _FOLD_LIMIT:  # too many: sort by keys
+            order = np.lexsort((seg, dist, key))
+            head = np.ones(len(order), dtype=bool)
+            head[1:] = key[order[1:]] != key[order[:-1]]
+            return order[head]
+        order = np.argsort(key * n_segments + seg)
+        run_key, run_dist = key[order], dist[order]
+        starts = np.flatnonzero(np.concatenate([[True], run_key[1:] != run_key[:-1]]))
+        least = np.minimum.reduceat(run_dist, starts)
+        at_least = run_dist == np.repeat(least, np.diff(np.append(starts, len(order))))
+        rows = np.arange(len(order))
+        return order[np.minimum.reduceat(np.where(at_least, rows, len(order)), starts)]
