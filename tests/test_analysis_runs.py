@@ -38,7 +38,13 @@ def test_order_by_unique_keys_sorts_as_the_stable_order(drawn) -> None:
     assert order_by([*keys, row], [*sizes, max(n, 1)], unique=True).tolist() == expected
 
 
-_MARGINS = st.sampled_from([-3.5, -0.0, 0.0, 0.5, 2.0, 1e-300, -1e300, 7.25])
+_MARGINS = st.sampled_from([-3.5, -0.0, 0.0, 0.5, 2.0, 1e-300, -1e300, 7.25, float("nan")])
+
+
+def _severity(rank: int, margin: float) -> tuple[int, int, float]:
+    """The documented order: highest rank, then smallest margin (-0.0 == 0.0), NaN last
+    and all NaNs equal."""
+    return (-rank, 1, 0.0) if margin != margin else (-rank, 0, margin)
 
 
 @given(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 3), _MARGINS), max_size=30))
@@ -58,8 +64,8 @@ def test_run_starts_and_most_severe_against_a_loop(rows) -> None:
     ):
         for g, (lo, hi) in enumerate(itertools.pairwise(bounds)):
             pool = [k for k in range(lo, hi) if mask is None or mask[k]]
-            # the most severe: highest rank, then smallest margin (-0.0 == 0.0), then first
-            want = min(pool, key=lambda k: (-rank[k], margin[k], k)) if pool else -1
+            # the most severe, then the first
+            want = min(pool, key=lambda k: (*_severity(rank[k], margin[k]), k)) if pool else -1
             assert choose[g] == want
 
 
@@ -69,12 +75,12 @@ def test_severity_keys_order_rows_as_rank_then_margin(rows) -> None:
     margin = np.array([r[1] for r in rows], dtype=np.float64)
     keys = severity_keys(rank, margin)
     for i, j in itertools.product(range(len(rows)), repeat=2):
-        a, b = (-rank[i], margin[i]), (-rank[j], margin[j])
+        a, b = _severity(rank[i], margin[i]), _severity(rank[j], margin[j])
         assert (keys[i] < keys[j]) == (a < b)
         assert (keys[i] == keys[j]) == (a == b)
     # dense: every key from 0 to the number of distinct rows less one
     assert sorted(set(keys.tolist())) == list(
-        range(len({(-r, m) for r, m in zip(rank.tolist(), margin.tolist(), strict=True)}))
+        range(len({_severity(r, m) for r, m in zip(rank.tolist(), margin.tolist(), strict=True)}))
     )
 
 

@@ -376,7 +376,7 @@ class _SegmentIndex:
         Rows sorted once by (point, line, segment) folded into one integer (a point meets
         a segment at most once, so the keys are unique), then the least distance of each
         run and its first row; several times cheaper than a lexicographic sort that takes
-        the distance as a key.
+        the distance as a key. ``n_points`` bounds the point numbers (for the fold).
         """
         if len(q) == 0:
             return np.zeros(0, dtype=np.int64)

@@ -206,8 +206,9 @@ class PairEvaluator:
         severity = severity_keys(found.rank, found.margin)
         path_rows = self._conflict_paths(flat, found, severity, at_conflicts)
         index = first_located + np.arange(len(on_track.rank))
+        trusted = located.pop("trusted")
         located["summary"] = self._summaries(
-            found, severity, np.ones(len(index)), located.pop("trusted"), None, rows=index
+            found, severity, np.ones(len(index)), trusted, None, rows=index
         )
         return self._decide(flat, found, severity, path_rows, located)
 
@@ -251,15 +252,21 @@ class PairEvaluator:
         n_steps_of = [len(p.steps) for p in paths]
         p_hyp = _owner_of(n_paths_of)
         p_prob = np.array([pi for h in hyps for pi in h.path_probability], dtype=np.float64)
+        if any(len(h.path_probability) != n or len(h.path_approaches) != n
+               for h, n in zip(hyps, n_paths_of, strict=True)):  # fmt: skip
+            raise ValueError("a hypothesis view's paths, probabilities and approaches differ")
         # links: each path's approaches, numbered over the whole time (hypothesis's first on)
         first_app = np.cumsum(n_apps_of) - n_apps_of
         l_path = _owner_of(n_links_of)
         l_app = np.array([k for ways in path_apps for k in ways], dtype=np.int64)
         l_app += first_app[p_hyp[l_path]]
-        # the most probable path through each approach (fmax: a nan probability never wins,
-        # as ``pi > best`` never holds for it)
+        if len(l_app) and not bool(np.all(l_app < (first_app + n_apps_of)[p_hyp[l_path]])):
+            raise ValueError("a path of a hypothesis view names an approach it does not have")
+        # the most probable path through each approach, as ``if pi > best`` did: fmax skips
+        # a nan probability, and adding 0.0 turns a -0.0 it may store into 0.0
         a_prob = np.zeros(len(approaches))
         np.fmax.at(a_prob, l_app, p_prob[l_path])
+        a_prob += 0.0
         way = self._way
         ways = [way(ap.conflict_id, ap.from_edge, ap.to_edge) for ap in approaches]
         f8, i8 = np.float64, np.int64
@@ -499,7 +506,7 @@ class PairEvaluator:
     ) -> _Summaries:
         """Per group of the finding rows ``rows`` (``starts``; None: one row per group)."""
         st = self.settings
-        idx = rows
+        idx = rows  # finding rows; the reductions return positions into them
         rank, margin, closing = found.rank[idx], found.margin[idx], found.closing[idx]
         alarm = rank >= _WARNING
         hold = (
@@ -631,7 +638,7 @@ def _kept(keep: BoolArray, *columns: npt.NDArray[Any]) -> list[npt.NDArray[Any]]
     """The rows of ``columns`` where ``keep`` holds (a take by the kept positions: numpy's
     boolean indexing of a large, mixed mask costs several times more)."""
     at = np.flatnonzero(keep)
-    return [np.take(c, at) for c in columns]
+    return [np.take(c, at, axis=0) for c in columns]
 
 
 def _owner_of(counts: list[int] | IntArray) -> IntArray:

@@ -101,7 +101,9 @@ def severity_keys(rank: IntArray, margin: FloatArray) -> IntArray:
 
     One float sort and one stable sort of a small integer (a radix sort) instead of a
     lexicographic sort; the keys let :func:`first_least` find each group's most severe row
-    with a single reduction. ``-0.0`` and ``0.0`` compare equal, as they do as floats.
+    with a single reduction. ``-0.0`` and ``0.0`` compare equal, as they do as floats;
+    a NaN margin counts as larger than any number, and all NaN margins of a rank share a
+    key (so the first such row wins among them).
 
     >>> severity_keys(np.array([1, 3, 1, 3]), np.array([2.0, 5.0, -1.0, 5.0])).tolist()
     [2, 0, 1, 0]
@@ -116,7 +118,8 @@ def severity_keys(rank: IntArray, margin: FloatArray) -> IntArray:
     order = by_margin[np.argsort(lowered, kind="stable")]
     r, m = rank[order], margin[order]
     change = np.zeros(n, dtype=np.int64)
-    change[1:] = (r[1:] != r[:-1]) | (m[1:] != m[:-1])
+    nan = np.isnan(m)
+    change[1:] = (r[1:] != r[:-1]) | ((m[1:] != m[:-1]) & ~(nan[1:] & nan[:-1]))
     keys = np.empty(n, dtype=np.int64)
     keys[order] = np.cumsum(change)
     return keys
@@ -125,7 +128,8 @@ def severity_keys(rank: IntArray, margin: FloatArray) -> IntArray:
 def first_least(keys: IntArray, starts: IntArray, eligible: BoolArray | None = None) -> IntArray:
     """Per group (``starts``) the position of the first eligible row with the least key,
     or -1 when none is eligible (with :func:`severity_keys`: the most severe row — highest
-    rank, then smallest margin, then first).
+    rank, then smallest margin, then first). Keys are non-negative integers with
+    ``max(keys) * len(keys) < 2**63`` (dense keys of up to a few million rows).
 
     >>> first_least(np.array([4, 2, 2, 7, 5]), np.array([0, 3])).tolist()
     [1, 4]
