@@ -61,11 +61,12 @@ one second thus add 1000 vehicles, not 10,000.
 
 from __future__ import annotations
 
+import bisect
 import heapq
 import logging
 import math
 from collections import Counter, OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Final, Literal
 
@@ -129,6 +130,53 @@ class TableUpdate:
     def accepted(self) -> bool:
         """True when the report is now stored in the table."""
         return self.outcome in ("registered", "updated")
+
+
+#: The outcome of most reports (an update that expired nobody); records are immutable.
+_UPDATED: Final = TableUpdate("updated")
+
+
+class _RecentSenders:
+    """The newest time of each of the last ``limit`` distinct senders, in the order they
+    were last heard, with the times also kept sorted: the control-room clock reads their
+    upper median at every accepted report."""
+
+    __slots__ = ("_limit", "_sorted", "_times")
+
+    def __init__(self, limit: int, items: Iterable[tuple[str, float]] = ()) -> None:
+        self._limit = limit
+        self._times: OrderedDict[str, float] = OrderedDict(items)
+        self._sorted = sorted(self._times.values())
+
+    def __len__(self) -> int:
+        return len(self._times)
+
+    def put(self, vid: str, t: float) -> None:
+        """Record a sender's newest time (it becomes the most recent sender)."""
+        times = self._times
+        old = times.get(vid)
+        if old is not None:
+            self._discard(old)
+        times[vid] = t
+        times.move_to_end(vid)
+        bisect.insort(self._sorted, t)
+        while len(times) > self._limit:
+            self._discard(times.popitem(last=False)[1])
+
+    def pop(self, vid: str) -> None:
+        """Forget a sender (no error when unknown)."""
+        old = self._times.pop(vid, None)
+        if old is not None:
+            self._discard(old)
+
+    def upper_median(self) -> float | None:
+        """The upper median of the senders' times (None without senders)."""
+        ordered = self._sorted
+        return ordered[len(ordered) // 2] if ordered else None
+
+    def _discard(self, t: float) -> None:
+        ordered = self._sorted
+        del ordered[bisect.bisect_left(ordered, t)]
 
 
 class VehicleTable:
@@ -209,7 +257,7 @@ class VehicleTable:
         self._clock: float = -math.inf
         self._started = False  # on board: the own vehicle (or the caller) set the clock
         self._explicit: float = -math.inf
-        self._recent: OrderedDict[str, float] = OrderedDict()
+        self._recent = _RecentSenders(_RECENT_SENDERS)
         self._dissent: OrderedDict[str, float] = OrderedDict()
         self._pending: OrderedDict[str, VehicleReport] = OrderedDict()
         self._new_period: int | None = None
@@ -266,16 +314,16 @@ class VehicleTable:
         gone = [v for v, r in self._reports.items() if r.t > limit and v != self.own_id]
         for vid in gone:
             del self._reports[vid]
-            self._recent.pop(vid, None)
+            self._recent.pop(vid)
             self.stats["out_of_window"] += 1
             logger.info("vehicle %s dropped: dated beyond the table clock %.1f", vid, self._clock)
         return gone
 
     def _control_clock(self) -> None:
         """Control room: the upper median of the recent senders' newest times."""
-        times = sorted(self._recent.values())
-        if times:
-            self._advance(times[len(times) // 2])
+        median = self._recent.upper_median()
+        if median is not None:
+            self._advance(median)
 
     def _dissent_from(self, vid: str, t: float) -> list[str]:
         """Control room: a sender far behind the clock; reset it if they outnumber."""
@@ -295,7 +343,7 @@ class VehicleTable:
         )
         self.stats["clock_reset"] += 1
         self._clock = max(median, self._explicit)
-        self._recent = OrderedDict(self._dissent)
+        self._recent = _RecentSenders(_RECENT_SENDERS, self._dissent.items())
         self._dissent.clear()
         return self._drop_ahead()
 
@@ -314,12 +362,24 @@ class VehicleTable:
         list of str
             Ids of the removed vehicles (never the own vehicle).
         """
+        if now is None and self.time_source is None:
+            # the clock stands still: nothing to do unless the oldest entry is due (the
+            # common case, checked at every report and every assessment)
+            heap = self._heap
+            if not heap or heap[0][0] >= self._clock - self.expiry_s:
+                return []
+            return self._sweep([])
         gone: list[str] = []
         if now is not None and math.isfinite(now):
             self._explicit = max(self._explicit, float(now))
             gone += self._advance(float(now))
         if self.time_source is not None:
             gone += self._advance(float(self.time_source()))
+        return self._sweep(gone)
+
+    def _sweep(self, gone: list[str]) -> list[str]:
+        """Remove the vehicles whose newest report is older than the clock's expiry limit
+        (appended to ``gone``, which is returned)."""
         limit = self._clock - self.expiry_s
         heap = self._heap
         while heap and heap[0][0] < limit:
@@ -330,18 +390,21 @@ class VehicleTable:
             if report is None or report.t != t or vid == self.own_id:
                 continue
             del self._reports[vid]
-            self._recent.pop(vid, None)
+            self._recent.pop(vid)
             self.stats["expired"] += 1
             gone.append(vid)
             logger.debug("vehicle %s expired (silent for more than %.1f s)", vid, self.expiry_s)
-        if len(heap) > 4 * len(self._reports) + 64:
-            self._heap = [(r.t, v) for v, r in self._reports.items()]
-            heapq.heapify(self._heap)
         return gone
 
     def _store(self, report: VehicleReport) -> None:
         self._reports[report.vehicle_id] = report
-        heapq.heappush(self._heap, (report.t, report.vehicle_id))
+        heap = self._heap
+        heapq.heappush(heap, (report.t, report.vehicle_id))
+        if len(heap) > 4 * len(self._reports) + 64:
+            # the entries of superseded reports wait in the heap until they are due:
+            # rebuild it from the stored reports once they outnumber them
+            self._heap = [(r.t, v) for v, r in self._reports.items()]
+            heapq.heapify(self._heap)
 
     def update(self, report: VehicleReport) -> TableUpdate:
         """Store a report according to the table's rules.
@@ -370,14 +433,11 @@ class VehicleTable:
         if vid in self._reports:
             self._store(report)
             self.stats["updated"] += 1
-            result = TableUpdate("updated", expired=tuple(expired))
+            result = TableUpdate("updated", expired=tuple(expired)) if expired else _UPDATED
         else:
             result = self._register(report, own, expired)
         if result.accepted and self.own_id is None:
-            self._recent[vid] = report.t
-            self._recent.move_to_end(vid)
-            while len(self._recent) > _RECENT_SENDERS:
-                self._recent.popitem(last=False)
+            self._recent.put(vid, report.t)
             self._dissent.pop(vid, None)
             self._control_clock()
             more = self.expire()
@@ -429,7 +489,7 @@ class VehicleTable:
                 self.stats["rejected_full"] += 1
                 return TableUpdate("rejected_full", expired=tuple(expired))
             del self._reports[evicted]
-            self._recent.pop(evicted, None)
+            self._recent.pop(evicted)
             self.stats["evicted"] += 1
             logger.debug("table full: %s dropped to register %s", evicted, vid)
         self._pending.pop(vid, None)
@@ -441,7 +501,7 @@ class VehicleTable:
 
     def remove(self, vehicle_id: str) -> bool:
         """Remove a vehicle; returns whether it was present."""
-        self._recent.pop(vehicle_id, None)
+        self._recent.pop(vehicle_id)
         return self._reports.pop(vehicle_id, None) is not None
 
     # -- full table ------------------------------------------------------------------------

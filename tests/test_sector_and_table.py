@@ -233,6 +233,43 @@ def test_control_room_clock_is_the_median_of_the_senders():
     assert table.clock == 101.0 and len(table) == 6
 
 
+@settings(max_examples=150, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 45), st.integers(0, 400), st.booleans()),
+        min_size=1,
+        max_size=160,
+    )
+)
+def test_control_room_clock_follows_the_upper_median_of_the_last_senders(steps):
+    # the clock, recomputed from scratch: the upper median of the newest times of the
+    # last 32 distinct senders, never going back; vehicles leaving forget their time
+    from collections import OrderedDict
+
+    table = VehicleTable(capacity=None, clock_window_s=None, expiry_s=1e6)
+    recent: OrderedDict[str, float] = OrderedDict()
+    newest: dict[str, float] = {}
+    clock = -np.inf
+    for sender, t, leaves in steps:
+        vid = f"V{sender}"
+        if leaves and vid in table:
+            table.remove(vid)
+            recent.pop(vid, None)
+            newest.pop(vid, None)
+            continue
+        accepted = table.update(at(vid, 0, 10 * sender, t=float(t))).accepted
+        assert accepted == (t > newest.get(vid, -np.inf))
+        if accepted:
+            newest[vid] = float(t)
+            recent[vid] = float(t)
+            recent.move_to_end(vid)
+            while len(recent) > 32:
+                recent.popitem(last=False)
+            times = sorted(recent.values())
+            clock = max(clock, times[len(times) // 2])
+        assert table.clock == clock
+
+
 def test_control_room_clock_recovers_from_a_first_report_dated_far_ahead():
     table = VehicleTable(capacity=None)
     table.update(at("WILD", 0, 0, t=1e9))

@@ -64,7 +64,7 @@ from antikol.gcpause import gc_paused
 from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
-from antikol.kinds import Method
+from antikol.kinds import LEVELS, Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import (
@@ -358,7 +358,10 @@ class Analyser:
         TableUpdate
             What the vehicle table did with it.
         """
-        return self.update_many([report])[0]
+        result = self._table_update(report)
+        if self._source is not None and result.accepted:
+            self._pending.append(report)
+        return result
 
     def update_many(self, reports: Sequence[VehicleReport]) -> list[TableUpdate]:
         """Feed many reports at once (one analysis cycle of a fleet).
@@ -720,6 +723,8 @@ class Analyser:
     def _assessment(
         vid: str, now: float, threats: list[Threat], suppressed: list[Suppressed], method: Method
     ) -> Assessment:
+        if not threats and not suppressed:  # most vehicles, most of the time
+            return Assessment(own_id=vid, t=now, level=LEVELS[0], method=method)
         ordered = sort_threats(threats)
         return Assessment(
             own_id=vid,
