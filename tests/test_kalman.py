@@ -9,11 +9,14 @@ from filterpy.kalman import KalmanFilter
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from antikol.positioning.fixerror import (
+    UNKNOWN_LAG_VAR_M2,
+    FixErrorState,
+    fix_error_predict,
+    fix_error_update,
+)
 from antikol.positioning.kalman import (
-    BiasState,
     TrackFilterState,
-    bias_predict,
-    bias_update,
     track_estimate,
     track_predict,
     track_update,
@@ -72,31 +75,58 @@ def test_along_track_filter_matches_filterpy(seq):
 
 @given(
     st.lists(
-        st.tuples(st.floats(0.1, 10.0), st.floats(0.0, 2 * np.pi), st.floats(-8.0, 8.0)),
+        st.tuples(
+            st.floats(0.1, 10.0),  # dt, s
+            st.floats(0.0, 2 * np.pi),  # track heading, rad
+            st.floats(-8.0, 8.0),  # lateral offset of the fix, m
+            st.floats(-15.0, 15.0),  # distance predicted minus distance between fixes, m
+            st.floats(0.0, 30.0),  # variance of the predicted distance, m²
+            st.sampled_from([1.0, -1.0]),  # running direction
+        ),
         min_size=1,
         max_size=10,
     )
 )
 @settings(max_examples=150, deadline=None)
-def test_bias_filter_matches_filterpy(seq):
+def test_fix_error_filter_matches_filterpy(seq):
+    # state (lag a, bias east, bias north); the lateral offset measures n·b, the fix's place
+    # along the track measures a + t·b (as 0, the lag being kept relative to the fix)
     sigma_b, tau, noise = 2.5, 60.0, 9.0
-    ref = KalmanFilter(dim_x=2, dim_z=1)
-    ref.x = np.zeros((2, 1))
-    ref.P = np.eye(2) * sigma_b**2
-    ours = BiasState.prior(1, sigma_b)
-    for dt, angle, lateral in seq:
+    ref = KalmanFilter(dim_x=3, dim_z=1)
+    ref.x = np.zeros((3, 1))
+    ref.P = np.diag([UNKNOWN_LAG_VAR_M2, sigma_b**2, sigma_b**2])
+    ours = FixErrorState.start(1, sigma_b)
+    for dt, angle, lateral, shift, run_var, direction in seq:
         rho = np.exp(-dt / tau)
-        ref.predict(F=np.eye(2) * rho, Q=np.eye(2) * sigma_b**2 * (1 - rho**2))
-        ours = bias_predict(ours, np.array([dt]), sigma_b, tau)
-        n = np.array([[np.cos(angle), np.sin(angle)]])
-        ref.update(np.array([[lateral]]), R=np.array([[noise]]), H=n)
-        ours, resid, var = bias_update(
-            ours, np.array([n[0, 0]]), np.array([n[0, 1]]), np.array([lateral]), np.array([noise])
+        ref.predict(
+            F=np.diag([1.0, rho, rho]),
+            Q=np.diag([run_var, sigma_b**2 * (1 - rho**2), sigma_b**2 * (1 - rho**2)]),
+            u=np.array([[shift]]),
+            B=np.array([[1.0], [0.0], [0.0]]),
         )
-        assert resid[0] == pytest.approx(ref.y[0, 0], abs=1e-9)
-        assert var[0] == pytest.approx(ref.S[0, 0], rel=1e-9)
-        assert ours.bx[0] == pytest.approx(ref.x[0, 0], abs=1e-9)
-        assert ours.by[0] == pytest.approx(ref.x[1, 0], abs=1e-9)
-        assert ours.pxx[0] == pytest.approx(ref.P[0, 0], rel=1e-7, abs=1e-12)
-        assert ours.pxy[0] == pytest.approx(ref.P[0, 1], rel=1e-7, abs=1e-9)
-        assert ours.pyy[0] == pytest.approx(ref.P[1, 1], rel=1e-7, abs=1e-12)
+        ours = fix_error_predict(
+            ours, np.array([dt]), sigma_b, tau, np.array([shift]), np.array([run_var])
+        )
+        nx, ny = -np.cos(angle), np.sin(angle)
+        tx, ty = direction * np.sin(angle), direction * np.cos(angle)
+        ref.update(np.array([[lateral]]), R=np.array([[noise]]), H=np.array([[0.0, nx, ny]]))
+        lat_y, lat_s = ref.y[0, 0], ref.S[0, 0]
+        ref.update(np.array([[0.0]]), R=np.array([[noise]]), H=np.array([[1.0, tx, ty]]))
+        ours, lat, along = fix_error_update(
+            ours,
+            np.array([nx]),
+            np.array([ny]),
+            np.array([lateral]),
+            np.array([tx]),
+            np.array([ty]),
+            np.array([noise]),
+        )
+        assert lat.residual_m[0] == pytest.approx(lat_y, abs=1e-9)
+        assert lat.variance_m2[0] == pytest.approx(lat_s, rel=1e-9)
+        assert along.residual_m[0] == pytest.approx(ref.y[0, 0], abs=1e-6)
+        assert along.variance_m2[0] == pytest.approx(ref.S[0, 0], rel=1e-7)
+        for k, name in enumerate(("ad", "bx", "by")):
+            assert getattr(ours, name)[0] == pytest.approx(ref.x[k, 0], abs=1e-6)
+        cov = (("paa", 0, 0), ("pax", 0, 1), ("pay", 0, 2), ("pxx", 1, 1), ("pxy", 1, 2))
+        for name, r, c in (*cov, ("pyy", 2, 2)):
+            assert getattr(ours, name)[0] == pytest.approx(ref.P[r, c], rel=1e-6, abs=1e-7)

@@ -8,7 +8,9 @@
   without a fix) and :mod:`~antikol.positioning.placing` (the reported place of each
   vehicle, most of a fleet in arrays);
 * :mod:`antikol.positioning.reach` — along-track distances between track states;
-* :mod:`antikol.positioning.kalman` — closed-form along-track and bias filters;
+* :mod:`antikol.positioning.fixerror` — each hypothesis' filter of its fix error (GPS bias
+  and along-track lag);
+* :mod:`antikol.positioning.kalman` — the closed-form along-track filter;
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);
 * :mod:`antikol.positioning.config`, :mod:`antikol.positioning.records` — parameters and
   results.

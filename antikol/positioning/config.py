@@ -22,7 +22,10 @@ class PositioningConfig:
     Every hypothesis carries its own estimate of the bias (a two-dimensional Gauss–Markov
     process), so a persistent lateral offset is explained as bias rather than as evidence
     for the neighbouring track, and the course over ground — good to a few degrees while
-    moving — keeps its real weight.
+    moving — keeps its real weight. The same filter follows the fix's place **along** the
+    track against the distance the vehicle reports running (odometer, else speed): the
+    inner of two loops a few metres apart, or the shorter of two branches, falls behind
+    that distance, and no lateral bias explains it away.
 
     Attributes
     ----------
@@ -105,6 +108,12 @@ class PositioningConfig:
         Longest outage bridged on speed alone before the position is lost, s.
     odometer_sigma_fraction : float
         Relative error of an odometer's distance (wheel slip and wear).
+    odometer_step_sigma_m : float
+        Error of one odometer increment between two fixes beyond the relative one
+        (resolution, timing), m.
+    speed_distance_sigma_fraction : float
+        Relative error of the distance run between two fixes when it comes from the
+        reported speeds (their mean times the interval: acceleration in between, curves).
     odometer_dead_reckoning_m : float
         Longest distance bridged on the odometer alone before the position is lost, m.
     lost_sigma_m : float
@@ -163,6 +172,8 @@ class PositioningConfig:
     max_rejections_in_row: int = 3
     dead_reckoning_s: float = 30.0
     odometer_sigma_fraction: float = 0.01
+    odometer_step_sigma_m: float = 0.25
+    speed_distance_sigma_fraction: float = 0.03
     odometer_dead_reckoning_m: float = 2000.0
     lost_sigma_m: float = 60.0
     reset_gap_s: float = 30.0

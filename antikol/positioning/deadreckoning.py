@@ -59,6 +59,13 @@ def dead_reckon(
             config.odometer_sigma_fraction,
         )
     carry(fleet, reach, net, row, travelled, report.route)
+    # the odometer's scale error is the tram's own, not fresh at every step: the lag's
+    # uncertainty grows with the whole distance run since the last fix
+    since_fix = fleet.odo[row] - fleet.odo_fix[row]
+    since_fix = since_fix if math.isfinite(since_fix) else 0.0
+    frac = config.odometer_sigma_fraction
+    held = fleet.hs[row] >= 0
+    fleet.paa[row, held] += frac * frac * ((since_fix + travelled) ** 2 - since_fix**2)
     fleet.z[row] += travelled
     fleet.odo[row] = odometer
     fleet.t[row] = report.t

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.kalman import TrackFilterState
 from antikol.report import VehicleReport
 
@@ -23,7 +24,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 #: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
-SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", "bx", "by", "pxx", "pxy", "pyy")
+SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", *FIX_ERROR_FIELDS)
 #: Per-vehicle float arrays of the fleet state.
 VEHICLE_FIELDS = ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
 
@@ -40,16 +41,21 @@ class FleetState:
     k: int
     # per hypothesis (vehicles x k): state id, offset on the edge (m), log-probability,
     # progress along its history (m), time running wrong way (s), the state id it entered
-    # its own from (as a float; -1: not known), GPS bias east and north (m) and its
-    # covariance (m²)
+    # its own from (as a float; -1: not known), and the fix error filter
+    # (:mod:`antikol.positioning.fixerror`): along-track lag, GPS bias east and north (m)
+    # and their covariance (m²)
     hs: IntArray = field(init=False)
     ho: FloatArray = field(init=False)
     hp: FloatArray = field(init=False)
     hg: FloatArray = field(init=False)
     hw: FloatArray = field(init=False)
     hv: FloatArray = field(init=False)
+    ad: FloatArray = field(init=False)
     bx: FloatArray = field(init=False)
     by: FloatArray = field(init=False)
+    paa: FloatArray = field(init=False)
+    pax: FloatArray = field(init=False)
+    pay: FloatArray = field(init=False)
     pxx: FloatArray = field(init=False)
     pxy: FloatArray = field(init=False)
     pyy: FloatArray = field(init=False)

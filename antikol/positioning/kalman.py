@@ -1,17 +1,15 @@
-"""Closed-form Kalman filters of positioning, vectorised over any number of vehicles.
+"""The along-track Kalman filter of positioning, closed form, vectorised over vehicles.
 
-Two small linear filters run for every vehicle:
+Every vehicle's reported position runs through the **along-track filter**: distance
+travelled ``s`` (m) and speed ``v`` (m/s) with a discretised white-noise-acceleration model
+(the constant-velocity model of ``filterpy.common.Q_discrete_white_noise``); measurements
+are the matched along-track position and the reported speed, or an odometer increment. (Each
+track hypothesis' own filter of the fix's error, GPS bias and along-track lag, is in
+:mod:`antikol.positioning.fixerror`.)
 
-* the **along-track filter**: distance travelled ``s`` (m) and speed ``v`` (m/s) with a
-  discretised white-noise-acceleration model (the constant-velocity model of
-  ``filterpy.common.Q_discrete_white_noise``); measurements are the matched along-track
-  position and the reported speed, or an odometer increment;
-* the **bias filter**: the two-dimensional GPS bias (east, north; m) as a first-order
-  Gauss–Markov process, measured through the lateral offset of a fix from a track.
-
-Both are written out in closed form over numpy arrays: a fleet of a thousand vehicles is one
+It is written out in closed form over numpy arrays: a fleet of a thousand vehicles is one
 call, and one step costs about a microsecond per vehicle where a generic filter costs tens.
-The test suite checks both against filterpy's ``KalmanFilter`` step by step.
+The test suite checks it against filterpy's ``KalmanFilter`` step by step.
 
 >>> import numpy as np
 >>> from antikol.positioning.kalman import AlongTrackFilter
@@ -35,11 +33,8 @@ from antikol.errors import InvalidArgumentError
 
 __all__ = [
     "AlongTrackFilter",
-    "BiasState",
     "FilterEstimate",
     "TrackFilterState",
-    "bias_predict",
-    "bias_update",
     "track_estimate",
     "track_odometer_step",
     "track_predict",
@@ -193,67 +188,6 @@ def track_estimate(
     pss = st.pss[idx] + 2.0 * dt * st.psv[idx] + dt * dt * st.pvv[idx] + qss
     pvv = st.pvv[idx] + qvv
     return s, np.maximum(st.v[idx], 0.0), np.sqrt(np.maximum(pss, 0.0)), np.sqrt(pvv)
-
-
-@dataclass(slots=True)
-class BiasState:
-    """GPS bias estimates (east, north; m) with their covariances (m²), parallel arrays."""
-
-    bx: FloatArray
-    by: FloatArray
-    pxx: FloatArray
-    pxy: FloatArray
-    pyy: FloatArray
-
-    @classmethod
-    def prior(cls, n: int, sigma_m: npt.ArrayLike) -> BiasState:
-        """The stationary prior: zero mean, ``sigma_m`` per axis (a scalar or per state)."""
-        var = np.broadcast_to(np.asarray(sigma_m, dtype=float) ** 2, (n,)).copy()
-        return cls(np.zeros(n), np.zeros(n), var, np.zeros(n), var.copy())
-
-    def take(self, idx: Any) -> BiasState:
-        """The states at ``idx`` (copies)."""
-        return BiasState(self.bx[idx], self.by[idx], self.pxx[idx], self.pxy[idx], self.pyy[idx])
-
-
-def bias_predict(
-    b: BiasState, dt: npt.ArrayLike, sigma_m: npt.ArrayLike, tau_s: float
-) -> BiasState:
-    """Gauss–Markov prediction: ``b' = rho b``, ``P' = rho² P + (1 - rho²) sigma²``."""
-    rho = np.exp(-np.maximum(np.asarray(dt, dtype=float), 0.0) / tau_s)
-    r2 = rho * rho
-    add = (1.0 - r2) * np.asarray(sigma_m, dtype=float) ** 2
-    return BiasState(rho * b.bx, rho * b.by, r2 * b.pxx + add, r2 * b.pxy, r2 * b.pyy + add)
-
-
-def bias_update(
-    b: BiasState, nx: FloatArray, ny: FloatArray, lateral_m: FloatArray, noise_var: FloatArray
-) -> tuple[BiasState, FloatArray, FloatArray]:
-    """Fuse a lateral offset measured along the unit normal ``(nx, ny)``.
-
-    The fix lies ``lateral_m`` from the track along the normal; under a hypothesis that
-    offset is the bias' normal component plus white noise of variance ``noise_var``.
-
-    Returns
-    -------
-    BiasState
-        Updated estimates.
-    residual, variance : ndarray
-        Innovation (m) and its variance (m²): the hypothesis' lateral likelihood.
-    """
-    pnx = b.pxx * nx + b.pxy * ny
-    pny = b.pxy * nx + b.pyy * ny
-    var = nx * pnx + ny * pny + noise_var
-    resid = lateral_m - (nx * b.bx + ny * b.by)
-    kx, ky = pnx / var, pny / var
-    out = BiasState(
-        b.bx + kx * resid,
-        b.by + ky * resid,
-        b.pxx - kx * pnx,
-        b.pxy - kx * pny,
-        b.pyy - ky * pny,
-    )
-    return out, resid, var
 
 
 @dataclass(frozen=True, slots=True)

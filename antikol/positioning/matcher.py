@@ -60,6 +60,7 @@ from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
+from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import (
     FleetState,
@@ -604,7 +605,7 @@ class Positioner:
         f.hg[r, col] = prog[m_idx]
         f.hw[r, col] = ww[m_idx]
         f.hv[r, col] = came[m_idx]
-        for name, values in zip(("bx", "by", "pxx", "pxy", "pyy"), bias_cols, strict=True):
+        for name, values in zip(FIX_ERROR_FIELDS, bias_cols, strict=True):
             getattr(f, name)[r, col] = values[m_idx]
         switched = ~fresh[go] & (parent[chosen] != 0)
         self.stats["lineage_switch"] += int(np.count_nonzero(switched))

@@ -2,13 +2,17 @@
 
 For every fix the candidate places (:mod:`antikol.positioning.candidates`) in both running
 directions are scored against every hypothesis the vehicle had: the **emission** — the
-lateral offset explained by the hypothesis' own slowly varying GPS bias
-(:mod:`antikol.positioning.kalman`) plus white noise with a heavy-tailed floor, and the
-course over ground against the track heading — and the **transition** — the along-track
-distance between the states (:mod:`antikol.positioning.reach`) against the distance
-travelled, with the costs of entering wrong-way running and of reversing. A candidate no
-hypothesis can reach may still be taken at the small relocation prior (a track missing from
-the map). The result is read by :class:`~antikol.positioning.matcher.Positioner`, which
+fix's lateral offset and its place along the track, explained by the hypothesis' own filter
+of the fix error (:mod:`antikol.positioning.fixerror`: a slowly varying GPS bias, and the
+lag between the fix and the distance the vehicle reported running, which a track of the
+wrong length cannot keep small) plus white noise with a heavy-tailed floor, and the course
+over ground against the track heading — and the **transition** — the along-track distance
+between the states (:mod:`antikol.positioning.reach`) against the distance travelled, with
+the costs of entering wrong-way running and of reversing. At a standstill the fixes' white
+noise is itself correlated: the filter takes each such fix at ``standstill_evidence_weight``
+of its information (its noise variance divided by the weight), as the score does. A
+candidate no hypothesis can reach may still be taken at the small relocation prior (a track
+missing from the map). The result is read by :class:`~antikol.positioning.matcher.Positioner`, which
 keeps the best hypotheses; this module writes no state.
 """
 
@@ -25,8 +29,14 @@ import numpy.typing as npt
 
 from antikol.positioning.candidates import Candidates
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.fixerror import (
+    FIX_ERROR_FIELDS,
+    UNKNOWN_LAG_VAR_M2,
+    FixErrorState,
+    fix_error_predict,
+    fix_error_update,
+)
 from antikol.positioning.fleet import FleetState
-from antikol.positioning.kalman import BiasState, bias_predict, bias_update
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.report import VehicleReport
 
@@ -51,8 +61,9 @@ class Scored:
     belongs to (``cv``), the state id (``cs``), the offset (``co``, m), the log-probability
     (``log_p``), the progress along its lineage (``progress``, m), the parent slot
     (``parent``, -1 for a new lineage), the time running wrong way (``wrong_way_s``), the
-    state it entered its own from (``came_from``, a float; -1: not known) and the GPS bias
-    estimate (``bias``: east, north, m; covariance, m²). ``stats`` counts what
+    state it entered its own from (``came_from``, a float; -1: not known) and the fix error
+    filter's state (``bias``: the arrays named by
+    :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what
     happened.
     """
 
@@ -70,7 +81,7 @@ class Scored:
     parent: IntArray
     wrong_way_s: FloatArray
     came_from: FloatArray
-    bias: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+    bias: tuple[FloatArray, ...]
     stats: Counter[str]
 
 
@@ -166,6 +177,7 @@ def score_fixes(
     )
     h = np.radians(heading)
     nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
+    tx, ty = direction * np.sin(h), direction * np.cos(h)  # unit tangent, running way
     static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
     standing = travelled < c.standstill_distance_m
     weight = np.where(standing, c.standstill_evidence_weight, 1.0)
@@ -207,23 +219,30 @@ def score_fixes(
     trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
     trans = np.where(np.isfinite(trans), trans, _NEG_INF)
 
-    parent = BiasState(
-        fleet.bx[pr, pk],
-        fleet.by[pr, pk],
-        fleet.pxx[pr, pk],
-        fleet.pxy[pr, pk],
-        fleet.pyy[pr, pk],
-    )
     pcv = cv[pc]
-    prior = bias_predict(parent, dt[pcv], bias_sigma[pcv], c.bias_tau_s)
-    post, resid, var = bias_update(prior, nx[pc], ny[pc], lateral[pc], noise_var[pc])
-    lat_ll = np.log(
-        (1.0 - c.outlier_weight)
-        * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
-        / math.sqrt(2.0 * math.pi)
-        + floor[pc]
+    parent = FixErrorState(*(getattr(fleet, name)[pr, pk] for name in FIX_ERROR_FIELDS))
+    # the error of the predicted distance: the odometer's, or the speeds' over the interval
+    run_var = np.where(
+        has_odo,
+        (c.odometer_sigma_fraction * travelled) ** 2 + c.odometer_step_sigma_m**2,
+        (c.speed_sigma_mps * dt) ** 2 + (c.speed_distance_sigma_fraction * travelled) ** 2,
+    )[pcv]
+    shift = np.where(np.isfinite(dist), exp_m - dist, 0.0)
+    prior = fix_error_predict(parent, dt[pcv], bias_sigma[pcv], c.bias_tau_s, shift, run_var)
+    # a reversal starts the distance run afresh
+    prior.ad = np.where(rev_ok, 0.0, prior.ad)
+    prior.paa = np.where(rev_ok, UNKNOWN_LAG_VAR_M2, prior.paa)
+    prior.pax = np.where(rev_ok, 0.0, prior.pax)
+    prior.pay = np.where(rev_ok, 0.0, prior.pay)
+    post, lat_i, along_i = fix_error_update(
+        prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv]
     )
-    emit = (lat_ll + static_ll[pc]) * weight[pcv]
+    lat_ll = _mixture_ll(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight, floor[pc])
+    along_ll = _mixture_ll(
+        along_i.residual_m, along_i.variance_m2, c.outlier_weight, floor[pc]
+    ) - _mixture_ll(0.0, noise_var[pc] + bias_sigma[pcv] ** 2, c.outlier_weight, floor[pc])
+    along_ll = np.where(rev_ok, 0.0, along_ll)
+    emit = (lat_ll + along_ll + static_ll[pc]) * weight[pcv]
     # laid out (candidate, slot) for the reductions, every other slot at -inf: the sums
     # run over the k slots in the same order whatever the number of hypotheses
     score = np.full(valid.shape, _NEG_INF)
@@ -240,14 +259,9 @@ def score_fixes(
     lse = np.where(np.isfinite(top), lse, _NEG_INF)
 
     # fresh starts: the emission alone, with the stationary bias prior
-    start = BiasState.prior(len(cs), bias_sigma[cv])
-    post0, resid0, var0 = bias_update(start, nx, ny, lateral, noise_var)
-    lat0 = np.log(
-        (1.0 - c.outlier_weight)
-        * np.exp(-0.5 * resid0 * resid0 / var0 - 0.5 * np.log(var0))
-        / math.sqrt(2.0 * math.pi)
-        + floor
-    )
+    start = FixErrorState.start(len(cs), bias_sigma[cv])
+    post0, lat0_i, _ = fix_error_update(start, nx, ny, lateral, tx, ty, noise_var)
+    lat0 = _mixture_ll(lat0_i.residual_m, lat0_i.variance_m2, c.outlier_weight, floor)
     score0 = lat0 + static_ll + np.where(wrong, c.wrong_way_entry_log_prior, 0.0)
 
     # fixes no hypothesis explains: no track within the search radius, or none that a
@@ -330,13 +344,7 @@ def score_fixes(
     def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
         return np.where(use0, a0, of_best(a, 0.0))
 
-    bias_cols = (
-        pick(post0.bx, post.bx),
-        pick(post0.by, post.by),
-        pick(post0.pxx, post.pxx),
-        pick(post0.pxy, post.pxy),
-        pick(post0.pyy, post.pyy),
-    )
+    bias_cols = tuple(pick(a0, a) for a0, a in zip(post0.columns(), post.columns(), strict=True))
     return Scored(
         unmatched,
         stuck & ~fresh,
@@ -354,6 +362,16 @@ def score_fixes(
         new_came,
         bias_cols,
         stats,
+    )
+
+
+def _mixture_ll(resid: Any, var: Any, outlier_weight: float, floor: Any) -> Any:
+    """Log-density of a Gaussian innovation with a heavy-tailed floor (an outlier's)."""
+    return np.log(
+        (1.0 - outlier_weight)
+        * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
+        / math.sqrt(2.0 * math.pi)
+        + floor
     )
 
 
