@@ -4,8 +4,9 @@ For every vehicle the :class:`Positioner` keeps a small set of hypotheses over
 (edge, running direction, offset) — an online hidden Markov model in the style of
 Newson & Krumm (2009), as used for train positioning by DLR's RCAS (Heirich 2016):
 
-* **emission** — the lateral offset of the fix from the track, explained by a slowly varying
-  GPS **bias** that every hypothesis estimates for itself (:mod:`antikol.positioning.kalman`)
+* **emission** — the lateral offset of the fix from the track and its place along it,
+  explained by a slowly varying GPS **bias** and the **lag** behind the distance reported
+  run that every hypothesis estimates for itself (:mod:`antikol.positioning.fixerror`)
   plus white noise with a heavy-tailed floor; and, when moving, the agreement of the course
   over ground with the track heading in that running direction;
 * **transition** — the along-track distance between successive states over physical moves
@@ -501,7 +502,7 @@ class Positioner:
         cv, cs, co, lp = scored.cv, scored.cs, scored.co, scored.log_p
         prog, parent, ww = scored.progress, scored.parent, scored.wrong_way_s
         came = scored.came_from
-        bias_cols, along_sigma = scored.bias, scored.along_sigma
+        error_cols, along_sigma = scored.fix_error, scored.along_sigma
         finite = np.isfinite(lp)
         # normalise per vehicle (candidates are grouped by vehicle, in vehicle order)
         vmax = np.full(n, _NEG_INF)
@@ -527,7 +528,7 @@ class Positioner:
                 rows,
                 (t, speed, odo, along_sigma),
                 (rank_order, bounds, p, parent, fresh, scored.standing),
-                (cs, co, prog, ww, came, bias_cols),
+                (cs, co, prog, ww, came, error_cols),
             )
         self._set_fixes(np.flatnonzero(~skip), reports, rows, t, speed, odo, xs, ys)
         if not len(go):
@@ -577,10 +578,10 @@ class Positioner:
         probabilities, parent slots, whether each report starts afresh and whether the
         vehicle stands;
         ``candidates``: state id, offset, progress, wrong-way time, the state it came from
-        and GPS bias of each."""
+        and fix error filter state of each."""
         c = self.config
         rank_order, bounds, p, parent, fresh, standing = ranking
-        cs, co, prog, ww, came, bias_cols = candidates
+        cs, co, prog, ww, came, error_cols = candidates
         f = self._f
         chosen, m_idx, m_group, col = plan_slots(
             rank_order,
@@ -605,7 +606,7 @@ class Positioner:
         f.hg[r, col] = prog[m_idx]
         f.hw[r, col] = ww[m_idx]
         f.hv[r, col] = came[m_idx]
-        for name, values in zip(FIX_ERROR_FIELDS, bias_cols, strict=True):
+        for name, values in zip(FIX_ERROR_FIELDS, error_cols, strict=True):
             getattr(f, name)[r, col] = values[m_idx]
         switched = ~fresh[go] & (parent[chosen] != 0)
         self.stats["lineage_switch"] += int(np.count_nonzero(switched))

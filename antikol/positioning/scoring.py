@@ -62,7 +62,7 @@ class Scored:
     (``log_p``), the progress along its lineage (``progress``, m), the parent slot
     (``parent``, -1 for a new lineage), the time running wrong way (``wrong_way_s``), the
     state it entered its own from (``came_from``, a float; -1: not known) and the fix error
-    filter's state (``bias``: the arrays named by
+    filter's state (``fix_error``: the arrays named by
     :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what
     happened.
     """
@@ -81,7 +81,7 @@ class Scored:
     parent: IntArray
     wrong_way_s: FloatArray
     came_from: FloatArray
-    bias: tuple[FloatArray, ...]
+    fix_error: tuple[FloatArray, ...]
     stats: Counter[str]
 
 
@@ -344,7 +344,7 @@ def score_fixes(
     def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
         return np.where(use0, a0, of_best(a, 0.0))
 
-    bias_cols = tuple(pick(a0, a) for a0, a in zip(post0.columns(), post.columns(), strict=True))
+    error_cols = tuple(pick(a0, a) for a0, a in zip(post0.columns(), post.columns(), strict=True))
     return Scored(
         unmatched,
         stuck & ~fresh,
@@ -360,7 +360,7 @@ def score_fixes(
         new_parent,
         new_ww,
         new_came,
-        bias_cols,
+        error_cols,
         stats,
     )
 
