@@ -89,6 +89,21 @@ class FixErrorState:
         """The arrays in :data:`FIX_ERROR_FIELDS` order."""
         return tuple(getattr(self, name) for name in FIX_ERROR_FIELDS)
 
+    def forget_lag(self, where: npt.NDArray[np.bool_]) -> FixErrorState:
+        """The states with the lag unknown again ``where`` true (a reversal starts the
+        distance run afresh); the bias is kept."""
+        return FixErrorState(
+            np.where(where, 0.0, self.ad),
+            self.bx,
+            self.by,
+            np.where(where, UNKNOWN_LAG_VAR_M2, self.paa),
+            np.where(where, 0.0, self.pax),
+            np.where(where, 0.0, self.pay),
+            self.pxx,
+            self.pxy,
+            self.pyy,
+        )
+
     def take(self, idx: Any) -> FixErrorState:
         """The states at ``idx`` (copies)."""
         return FixErrorState(*(a[idx] for a in self.columns()))

@@ -12,8 +12,9 @@ the costs of entering wrong-way running and of reversing. At a standstill the fi
 noise is itself correlated: the filter takes each such fix at ``standstill_evidence_weight``
 of its information (its noise variance divided by the weight), as the score does. A
 candidate no hypothesis can reach may still be taken at the small relocation prior (a track
-missing from the map). The result is read by :class:`~antikol.positioning.matcher.Positioner`, which
-keeps the best hypotheses; this module writes no state.
+missing from the map). The result is read by
+:class:`~antikol.positioning.matcher.Positioner`, which keeps the best hypotheses; this
+module writes no state.
 """
 
 from __future__ import annotations
@@ -31,7 +32,6 @@ from antikol.positioning.candidates import Candidates
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fixerror import (
     FIX_ERROR_FIELDS,
-    UNKNOWN_LAG_VAR_M2,
     FixErrorState,
     fix_error_predict,
     fix_error_update,
@@ -228,12 +228,9 @@ def score_fixes(
         (c.speed_sigma_mps * dt) ** 2 + (c.speed_distance_sigma_fraction * travelled) ** 2,
     )[pcv]
     shift = np.where(np.isfinite(dist), exp_m - dist, 0.0)
-    prior = fix_error_predict(parent, dt[pcv], bias_sigma[pcv], c.bias_tau_s, shift, run_var)
-    # a reversal starts the distance run afresh
-    prior.ad = np.where(rev_ok, 0.0, prior.ad)
-    prior.paa = np.where(rev_ok, UNKNOWN_LAG_VAR_M2, prior.paa)
-    prior.pax = np.where(rev_ok, 0.0, prior.pax)
-    prior.pay = np.where(rev_ok, 0.0, prior.pay)
+    prior = fix_error_predict(
+        parent, dt[pcv], bias_sigma[pcv], c.bias_tau_s, shift, run_var
+    ).forget_lag(rev_ok)
     post, lat_i, along_i = fix_error_update(
         prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv]
     )
