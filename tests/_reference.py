@@ -8,6 +8,7 @@ deliberate change of behaviour, and say so in the commit.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -18,25 +19,23 @@ from antikol.ingest.replaylog import REPLAY_OPTIONAL_COLUMNS
 from antikol.sim import GpsModel, Simulator, fleet
 
 
+def _plain(value):
+    """A record's field as a JSON value; floats exactly, by repr."""
+    if value is None or isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, float):
+        return repr(value)
+    raise TypeError(f"unexpected field value {value!r}")
+
+
 def assessment_record(a) -> list:
-    """An assessment as plain JSON values (floats exactly, by repr)."""
+    """An assessment as plain JSON values: every field of it, its threats and its
+    suppressed vehicles, in their order."""
     return [
         a.level,
-        [
-            [
-                th.vehicle_id,
-                th.kind,
-                th.level,
-                repr(float(th.distance_m)),
-                repr(float(th.closing_speed_mps)),
-                th.method,
-                th.zone,
-                None if th.probability is None else repr(float(th.probability)),
-                th.held,
-            ]
-            for th in a.threats
-        ],
-        sorted([s.vehicle_id, s.reason] for s in a.suppressed),
+        a.method,
+        [[_plain(v) for v in dataclasses.astuple(th)] for th in a.threats],
+        [[_plain(v) for v in dataclasses.astuple(s)] for s in a.suppressed],
     ]
 
 
@@ -49,9 +48,10 @@ def simulate() -> list:
     return sorted(result.reports, key=lambda r: (r.t, r.vehicle_id))
 
 
-def replay(reports) -> dict[str, list]:
-    net = trackmap.load_default()
-    an = Analyser(track_map=net)
+def replay(reports, *, with_map: bool = True) -> dict[str, list]:
+    """The assessments of a control room (every vehicle at every time), with the default
+    map or by the paper's sector rule alone."""
+    an = Analyser(track_map=trackmap.load_default()) if with_map else Analyser()
     out: dict[str, list] = {}
     times = sorted({r.t for r in reports})
     by_t: dict[float, list] = {}
@@ -83,17 +83,21 @@ def replay_on_board(reports, own_id: str) -> dict[str, list]:
     return out
 
 
-def load(path: Path) -> tuple[list[VehicleReport], dict[str, list]]:
-    """The recorded reports and assessments."""
+def load(path: Path, key: str = "assessments") -> tuple[list[VehicleReport], dict[str, list]]:
+    """The recorded reports and assessments (``sector_assessments``: without a map)."""
     doc = json.loads(path.read_text(encoding="utf-8"))
-    return [VehicleReport(**row) for row in doc["reports"]], doc["assessments"]
+    return [VehicleReport(**row) for row in doc["reports"]], doc[key]
 
 
 def main(path: str) -> None:
     reports = simulate()
     fields = ("vehicle_id", "t", "lat", "lon", "speed_mps", "course_deg", *REPLAY_OPTIONAL_COLUMNS)
     rows = [{f: getattr(r, f) for f in fields if getattr(r, f, None) is not None} for r in reports]
-    doc = {"reports": rows, "assessments": replay(reports)}
+    doc = {
+        "reports": rows,
+        "assessments": replay(reports),
+        "sector_assessments": replay(reports, with_map=False),
+    }
     Path(path).write_text(json.dumps(doc, separators=(",", ":")) + "\n", encoding="utf-8")
     print(f"{len(rows)} reports, {len(doc['assessments'])} assessments -> {path}")
 

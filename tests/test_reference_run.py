@@ -11,9 +11,10 @@ from tests._reference import load, replay, replay_on_board
 RECORDING = Path(__file__).parent / "data" / "reference_run.json"
 
 
-def test_the_recorded_run_replays_to_identical_assessments():
-    reports, expected = load(RECORDING)
-    got = replay(reports)
+@pytest.mark.parametrize("with_map", [True, False], ids=["track", "sector"])
+def test_the_recorded_run_replays_to_identical_assessments(with_map):
+    reports, expected = load(RECORDING, "assessments" if with_map else "sector_assessments")
+    got = replay(reports, with_map=with_map)
     assert got.keys() == expected.keys()
     differ = [k for k in expected if got[k] != expected[k]]
     assert not differ, f"{len(differ)} assessments differ, first {differ[0]}: " + (

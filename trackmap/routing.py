@@ -21,14 +21,13 @@ True
 
 from __future__ import annotations
 
-import dataclasses
 import heapq
 import logging
 import math
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol, TypeVar
+from typing import Protocol
 
 import networkx as nx
 import numpy as np
@@ -48,6 +47,7 @@ from trackmap.model import (
     RouteDistance,
     TrackState,
 )
+from trackmap.records import positional
 
 __all__ = [
     "RoutableMap",
@@ -59,7 +59,6 @@ __all__ = [
     "traversal_graph",
 ]
 
-_R = TypeVar("_R")
 
 logger = logging.getLogger(__name__)
 
@@ -461,28 +460,10 @@ def _distance_of(c: ConflictPass) -> float:
     return c.distance_m
 
 
-def _positional(cls: type[_R]) -> Callable[..., _R]:
-    """A constructor of a frozen slotted dataclass taking every field by position, that
-    sets the slots directly: the generated ``__init__`` of a frozen class goes through
-    ``object.__setattr__`` for each field, which made building the records of the paths
-    ahead a large part of the walks' cost. Equal objects to the class's own constructor
-    (a test checks); no defaults, no validation — only for records that have neither."""
-    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
-    setters = {f"_set_{k}": getattr(cls, name).__set__ for k, name in enumerate(names)}
-    args = ", ".join(f"v{k}" for k in range(len(names)))
-    body = "".join(f"    _set_{k}(obj, v{k})\n" for k in range(len(names)))
-    source = f"def make({args}):\n    obj = _new(_cls)\n{body}    return obj\n"
-    scope: dict[str, Any] = {"_new": object.__new__, "_cls": cls, **setters}
-    exec(source, scope)  # as dataclasses builds __init__: one plain call per field
-    make: Callable[..., _R] = scope["make"]
-    make.__qualname__ = f"_positional({cls.__name__})"
-    return make
-
-
-_step = _positional(PathStep)
-_node_pass = _positional(NodePass)
-_conflict_pass = _positional(ConflictPass)
-_path = _positional(Path)
+_step = positional(PathStep)
+_node_pass = positional(NodePass)
+_conflict_pass = positional(ConflictPass)
+_path = positional(Path)
 
 
 def path_geometry(net: RoutableMap, path: Path) -> shapely.LineString:

@@ -35,36 +35,21 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
-from antikol.analysis import braking
 from antikol.analysis.alarms import AlarmBook, AlarmPolicy
-from antikol.analysis.assessment import (
-    Assessment,
-    Suppressed,
-    Threat,
-    Zone,
-    highest_level,
-    sort_threats,
-)
+from antikol.analysis.assessment import Assessment, Suppressed, Threat, Zone, assessment_of
 from antikol.analysis.branches import BranchSettings
 from antikol.analysis.conflicts import RuleSettings
+from antikol.analysis.fleetsector import FleetSector, fleet_sector, sector_assessments
 from antikol.analysis.pairs import PairEvaluator, PairOutcome, PairSettings
 from antikol.analysis.profiles import BrakingProfile, load_profile
-from antikol.analysis.sector import (
-    CourseKeeper,
-    HitClosing,
-    SectorHit,
-    SectorRule,
-    closing_speeds,
-    hit_closing_speed,
-)
-from antikol.analysis.threats import suppression_reason, track_threat
+from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule, hit_closing_speed
+from antikol.analysis.threats import sector_threat, suppression_reason, track_threat
 from antikol.analysis.views import CycleViews, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
 from antikol.gcpause import gc_paused
 from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
-from antikol.kinds import LEVELS, Method
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import (
@@ -343,11 +328,8 @@ class Analyser:
         self._last_threats: dict[tuple[str, str], Threat] = {}
         self._moving: dict[str, bool] = {}
         self._pending: list[VehicleReport] = []
-        self._sector_cycle: tuple[tuple[float, int] | None, dict[str, list[SectorHit]]] = (
-            None,
-            {},
-        )
-        self._sector_closing: dict[tuple[str, str], HitClosing] = {}
+        self._fleet_sector = FleetSector(None, {}, {})
+        self._sector_assessed: tuple[object, dict[str, Assessment]] = (None, {})
 
     # -- input ---------------------------------------------------------------------------
     def update(self, report: VehicleReport) -> TableUpdate:
@@ -515,7 +497,6 @@ class Analyser:
         self._expire(t)
         return {vid: self.assess(vid, t=t) for vid in self.table.vehicle_ids()}
 
-    @gc_paused
     def assess(self, own_id: str | None = None, *, t: float | None = None) -> Assessment:
         """Assess the threats to one vehicle.
 
@@ -539,6 +520,26 @@ class Analyser:
         vid = own_id if own_id is not None else self.own_id
         if vid is None:
             raise UnknownVehicleError("assess() needs an own_id (none was configured)")
+        if self.track_map is None and self.own_id is None:
+            # a control room without a map: every vehicle's assessment of the time is
+            # built at its first question, the others are look-ups
+            self._expire(t)
+            now = self.table.clock if t is None else float(t)
+            key = (now, self._version)
+            if self._sector_assessed[0] != key:
+                self._sector_assessed = (key, self._assess_sector_fleet(now))
+            found = self._sector_assessed[1].get(vid)
+            if found is None:
+                raise UnknownVehicleError(f"no current report of vehicle {vid!r}")
+            return found
+        return self._assess(vid, t)
+
+    @gc_paused
+    def _assess_sector_fleet(self, now: float) -> dict[str, Assessment]:
+        return sector_assessments(self.sector, self._fleet_hits(now), self.table.vehicle_ids(), now)
+
+    @gc_paused
+    def _assess(self, vid: str, t: float | None) -> Assessment:
         self._expire(t)
         own = self.table.get(vid)
         if own is None:
@@ -547,7 +548,7 @@ class Analyser:
         hits = self._sector_hits(own, now)
         if self.track_map is None:
             plain = [self._sector_threat(own, self._report(h.vehicle_id), h) for h in hits]
-            return self._assessment(vid, now, plain, [], "sector")
+            return assessment_of(vid, now, plain, [], "sector")
         cycle = self._refresh(now)
         own_view = cycle.expand(vid)
         threats: list[Threat] = []
@@ -561,7 +562,7 @@ class Analyser:
                 threats.append(self._alarm(vid, h.vehicle_id, now, th, raise_now=True, hold=False))
                 seen.add(h.vehicle_id)
             threats.extend(self._released(vid, now, seen))
-            return self._assessment(vid, now, threats, [], "sector")
+            return assessment_of(vid, now, threats, [], "sector")
         hit_by_id = {h.vehicle_id: h for h in hits}
         outcomes = self._pair_outcomes(cycle, vid)
         for ovid in sorted(outcomes.keys() | hit_by_id.keys()):
@@ -594,7 +595,7 @@ class Analyser:
             seen.add(ovid)
         threats.extend(self._released(vid, now, seen))
         shown = [th for th in threats if th.level != "none"]
-        return self._assessment(vid, now, shown, suppressed, "track")
+        return assessment_of(vid, now, shown, suppressed, "track")
 
     def zones(self, own_id: str | None = None, *, t: float | None = None) -> list[Zone]:
         """The zones of the own sensitivity area with their corridor polygons (local frame).
@@ -679,17 +680,7 @@ class Analyser:
         on board from the own vehicle alone, in a control room for every vehicle of the
         time at once (:meth:`SectorRule.evaluate_all`)."""
         if self.own_id is None:
-            key = (now, self._version)
-            if self._sector_cycle[0] != key:
-                reports = list(self.table)
-                courses = [self.courses.course(r.vehicle_id) for r in reports]
-                hits = self.sector.evaluate_all(
-                    reports, courses, targets=[now - r.t <= self.expiry_s for r in reports]
-                )
-                by_id = {r.vehicle_id: h for r, h in zip(reports, hits, strict=True)}
-                self._sector_cycle = (key, by_id)
-                self._sector_closing = closing_speeds(reports, courses, hits)
-            return self._sector_cycle[1].get(own.vehicle_id, [])
+            return self._fleet_hits(now).hits.get(own.vehicle_id, [])
         course = self.courses.course(own.vehicle_id)
         others = [r for r in self.table.others(own.vehicle_id) if now - r.t <= self.expiry_s]
         if course is None or not others:
@@ -699,41 +690,23 @@ class Analyser:
     def _sector_threat(
         self, own: VehicleReport, other: VehicleReport, hit: SectorHit, note: str = ""
     ) -> Threat:
-        known = self._sector_closing.get((own.vehicle_id, hit.vehicle_id))
+        known = self._fleet_sector.closing.get((own.vehicle_id, hit.vehicle_id))
         if known is not None and known[0] is own and known[1] is other and known[2] is hit:
             closing = known[3]  # the cycle's hits, computed in one array call
         else:
             closing = hit_closing_speed(own, self.courses.course(own.vehicle_id), other, hit)
-        detail = (
-            f"within {self.sector.d_col_m:g} m and ±{self.sector.half_angle_deg:g}° of own course"
-        )
-        return Threat(
-            vehicle_id=hit.vehicle_id,
-            kind="sector",
-            level="warning",
-            distance_m=hit.distance_m,
-            closing_speed_mps=closing,
-            ttc_s=braking.time_to_collision(hit.distance_m, closing),
-            method="sector",
-            bearing_deg=hit.bearing_deg,
-            detail=f"{detail} ({note})" if note else detail,
-        )
+        return sector_threat(self.sector, hit, closing, note)
 
-    @staticmethod
-    def _assessment(
-        vid: str, now: float, threats: list[Threat], suppressed: list[Suppressed], method: Method
-    ) -> Assessment:
-        if not threats and not suppressed:  # most vehicles, most of the time
-            return Assessment(own_id=vid, t=now, level=LEVELS[0], method=method)
-        ordered = sort_threats(threats)
-        return Assessment(
-            own_id=vid,
-            t=now,
-            level=highest_level(ordered),
-            threats=ordered,
-            suppressed=tuple(sorted(suppressed, key=lambda s: s.distance_m)),
-            method=method,
-        )
+    def _fleet_hits(self, now: float) -> FleetSector:
+        """Every vehicle's sector hits at time ``now``, computed at its first question."""
+        key = (now, self._version)
+        if self._fleet_sector.key != key:
+            reports = list(self.table)
+            courses = [self.courses.course(r.vehicle_id) for r in reports]
+            self._fleet_sector = fleet_sector(
+                self.sector, reports, courses, now=now, expiry_s=self.expiry_s, key=key
+            )
+        return self._fleet_sector
 
     # -- per-cycle views -----------------------------------------------------------------
     def _refresh(self, now: float) -> CycleViews:

@@ -10,6 +10,7 @@ import shapely
 
 from antikol.kinds import LEVELS, Level, Method, ThreatKind, level_rank, max_level
 from trackmap import Path
+from trackmap.records import positional
 
 __all__ = [
     "LEVELS",
@@ -20,6 +21,7 @@ __all__ = [
     "Threat",
     "ThreatKind",
     "Zone",
+    "assessment_of",
     "highest_level",
     "level_rank",
     "sort_threats",
@@ -153,6 +155,48 @@ def sort_threats(threats: list[Threat]) -> tuple[Threat, ...]:
 def highest_level(threats: tuple[Threat, ...] | list[Threat]) -> Level:
     """Highest level among threats, ``none`` if empty."""
     return max_level(*(th.level for th in threats))
+
+
+_assessment = positional(Assessment)
+_QUIET = LEVELS[0]
+
+
+def assessment_of(
+    own_id: str,
+    t: float,
+    threats: list[Threat],
+    suppressed: list[Suppressed],
+    method: Method,
+) -> Assessment:
+    """The assessment of one vehicle from its threats, in any order.
+
+    Parameters
+    ----------
+    own_id : str
+    t : float
+        Time of the assessment, s.
+    threats : list of Threat
+        Ordered here: most severe first, then nearest first.
+    suppressed : list of Suppressed
+        Ordered here: nearest first.
+    method : str
+        ``track`` or ``sector``.
+
+    Returns
+    -------
+    Assessment
+    """
+    if not threats and not suppressed:  # most vehicles, most of the time
+        return _assessment(own_id, t, _QUIET, (), (), method)
+    ordered = sort_threats(threats)
+    return _assessment(
+        own_id,
+        t,
+        highest_level(ordered),
+        ordered,
+        tuple(sorted(suppressed, key=lambda s: s.distance_m)),
+        method,
+    )
 
 
 @dataclass(frozen=True, slots=True)

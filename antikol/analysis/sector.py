@@ -41,9 +41,11 @@ __all__ = [
     "CourseKeeper",
     "HitClosing",
     "SectorHit",
+    "SectorPairs",
     "SectorRule",
     "closing_speeds",
     "hit_closing_speed",
+    "pair_closing_speeds",
 ]
 
 
@@ -176,30 +178,69 @@ class SectorRule:
         lon = np.fromiter((r.lon for r in reports), dtype=float, count=n)
         course = np.array([np.nan if c is None else c for c in courses], dtype=float)
         seen = np.ones(n, dtype=bool) if targets is None else np.asarray(targets, dtype=bool)
+        pairs = self.hit_pairs(lat, lon, course, seen)
+        for i, j, d, b in zip(
+            pairs.own.tolist(),
+            pairs.other.tolist(),
+            pairs.distance_m.tolist(),
+            pairs.bearing_deg.tolist(),
+            strict=True,
+        ):
+            out[i].append(SectorHit(reports[j].vehicle_id, d, b))
+        return out
+
+    def hit_pairs(
+        self,
+        lat_deg: npt.NDArray[np.float64],
+        lon_deg: npt.NDArray[np.float64],
+        course_deg: npt.NDArray[np.float64],
+        targets: npt.NDArray[np.bool_],
+    ) -> SectorPairs:
+        """Every (own, other) pair of a fleet inside the own sector, as arrays.
+
+        The array form of :meth:`evaluate_all`: candidates from a k-d tree of the
+        positions, then formulas (4)-(9) pair by pair.
+
+        Parameters
+        ----------
+        lat_deg, lon_deg : ndarray of float
+            Positions of the fleet, degrees.
+        course_deg : ndarray of float
+            The course each vehicle's sector is centred on, degrees; NaN: no course, no
+            hits of its own.
+        targets : ndarray of bool
+            Which vehicles may be hit.
+
+        Returns
+        -------
+        SectorPairs
+            Sorted by own vehicle, then distance, then other vehicle.
+        """
+        n = len(lat_deg)
+        if n < 2:
+            empty = np.zeros(0, dtype=np.intp)
+            return SectorPairs(empty, empty, np.zeros(0), np.zeros(0))
         # candidates: chords on the paper's sphere, with room for the planar formulas'
         # difference from it (under 1 % at the sector's range)
-        phi, lam = np.radians(lat), np.radians(lon)
+        phi, lam = np.radians(lat_deg), np.radians(lon_deg)
         xyz = PAPER_SPHERE_RADIUS_M * np.column_stack(
             (np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi))
         )
         pairs = cKDTree(xyz).query_pairs(1.05 * self.d_col_m + 10.0, output_type="ndarray")
         own = np.concatenate([pairs[:, 0], pairs[:, 1]])
         other = np.concatenate([pairs[:, 1], pairs[:, 0]])
-        keep = ~np.isnan(course[own]) & seen[other]
+        keep = ~np.isnan(course_deg[own]) & targets[other]
         own, other = own[keep], other[keep]
         # formulas (4)-(9) pair by pair, as paper_offsets computes them from one vehicle
-        lat_d = latdist_km(lat[own], lat[other])
-        lon_d = londist_km(lat[own], lon[own], lon[other])
+        lat_d = latdist_km(lat_deg[own], lat_deg[other])
+        lon_d = londist_km(lat_deg[own], lon_deg[own], lon_deg[other])
         distance = np.asarray(dist_km(lat_d, lon_d)) * 1000.0
         bearing = np.degrees(np.asarray(sight_rad(lat_d, lon_d))) % 360.0
-        off = np.abs(np.asarray(angle_difference_deg(bearing, course[own])))
-        hit = (distance < self.d_col_m) & (off <= self.half_angle_deg)
+        off = np.abs(np.asarray(angle_difference_deg(bearing, course_deg[own])))
+        hit = np.flatnonzero((distance < self.d_col_m) & (off <= self.half_angle_deg))
         own, other, distance, bearing = own[hit], other[hit], distance[hit], bearing[hit]
-        for k in np.lexsort((other, distance, own)):
-            out[own[k]].append(
-                SectorHit(reports[other[k]].vehicle_id, float(distance[k]), float(bearing[k]))
-            )
-        return out
+        order = np.lexsort((other, distance, own))
+        return SectorPairs(own[order], other[order], distance[order], bearing[order])
 
     @staticmethod
     def measure(
@@ -218,6 +259,19 @@ class SectorHit:
     vehicle_id: str
     distance_m: float
     bearing_deg: float
+
+
+class SectorPairs(NamedTuple):
+    """The hits of a fleet's sectors as arrays, one row per (own, other) pair."""
+
+    #: Index of the own vehicle of each hit.
+    own: npt.NDArray[np.intp]
+    #: Index of the vehicle inside its sector.
+    other: npt.NDArray[np.intp]
+    #: Planar distance, formula (8), metres.
+    distance_m: npt.NDArray[np.float64]
+    #: Bearing from the own vehicle, formula (9), degrees clockwise from north.
+    bearing_deg: npt.NDArray[np.float64]
 
 
 class HitClosing(NamedTuple):
@@ -278,26 +332,59 @@ def closing_speeds(
     rows = [(i, index[h.vehicle_id], h) for i, own in enumerate(hits) for h in own]
     if not rows:
         return {}
-    own_i = np.array([i for i, _, _ in rows], dtype=np.int64)
-    other_i = np.array([j for _, j, _ in rows], dtype=np.int64)
-    distance = np.array([h.distance_m for _, _, h in rows], dtype=float)
-    bearing = np.radians(np.array([h.bearing_deg for _, _, h in rows], dtype=float))
+    pairs = SectorPairs(
+        np.array([i for i, _, _ in rows], dtype=np.intp),
+        np.array([j for _, j, _ in rows], dtype=np.intp),
+        np.array([h.distance_m for _, _, h in rows], dtype=float),
+        np.array([h.bearing_deg for _, _, h in rows], dtype=float),
+    )
     speed = np.fromiter((r.speed_mps for r in reports), dtype=float, count=len(reports))
     reported = np.fromiter((r.course_deg for r in reports), dtype=float, count=len(reports))
     kept = np.array([np.nan if c is None else c for c in courses], dtype=float)
-    own_course = np.where(np.isnan(kept), reported, kept)[own_i]
-    closing = closing_speed_mps(
-        distance * np.sin(bearing),
-        distance * np.cos(bearing),
-        speed[own_i],  # type: ignore[arg-type]  # arrays: one own vehicle per hit
-        own_course,  # type: ignore[arg-type]
-        speed[other_i],
-        reported[other_i],
-    )
+    closing = pair_closing_speeds(pairs, speed, kept, reported)
     return {
         (reports[i].vehicle_id, h.vehicle_id): HitClosing(reports[i], reports[j], h, c)
-        for (i, j, h), c in zip(rows, np.asarray(closing).tolist(), strict=True)
+        for (i, j, h), c in zip(rows, closing.tolist(), strict=True)
     }
+
+
+def pair_closing_speeds(
+    pairs: SectorPairs,
+    speed_mps: npt.NDArray[np.float64],
+    course_deg: npt.NDArray[np.float64],
+    reported_course_deg: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float64]:
+    """The closing speed of every hit of a fleet's sectors, m/s (positive when closing).
+
+    The numbers of :func:`hit_closing_speed` called hit by hit.
+
+    Parameters
+    ----------
+    pairs : SectorPairs
+        The hits (:meth:`SectorRule.hit_pairs`).
+    speed_mps : ndarray of float
+        Each vehicle's reported speed, m/s.
+    course_deg : ndarray of float
+        The course each vehicle's sector used, degrees (NaN: the reported one).
+    reported_course_deg : ndarray of float
+        Each vehicle's reported course, degrees.
+
+    Returns
+    -------
+    ndarray of float
+        One closing speed per row of ``pairs``, m/s.
+    """
+    own_course = np.where(np.isnan(course_deg), reported_course_deg, course_deg)[pairs.own]
+    bearing = np.radians(pairs.bearing_deg)
+    closing = closing_speed_mps(
+        pairs.distance_m * np.sin(bearing),
+        pairs.distance_m * np.cos(bearing),
+        speed_mps[pairs.own],  # type: ignore[arg-type]  # arrays: one own vehicle per hit
+        own_course,  # type: ignore[arg-type]
+        speed_mps[pairs.other],
+        reported_course_deg[pairs.other],
+    )
+    return np.asarray(closing, dtype=float).reshape(-1)
 
 
 @dataclass

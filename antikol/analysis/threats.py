@@ -14,14 +14,20 @@ import operator
 import numpy as np
 import shapely
 
+from antikol.analysis import braking
 from antikol.analysis.assessment import Threat
 from antikol.analysis.pairs import PairOutcome
+from antikol.analysis.sector import SectorHit, SectorRule
 from antikol.analysis.views import CycleViews, VehicleView
 from trackmap import TrackMap
+from trackmap.records import positional
 
-__all__ = ["suppression_reason", "track_threat"]
+__all__ = ["sector_threat", "suppression_reason", "track_threat"]
 
 _EDGE_ID = operator.attrgetter("edge_id")
+#: Threats by position: every field of :class:`Threat` in its order (a test checks the
+#: records against the keyword constructor); an assessment cycle builds thousands.
+_threat = positional(Threat)
 
 
 def track_threat(own: VehicleView, other: VehicleView, result: PairOutcome) -> Threat:
@@ -32,22 +38,61 @@ def track_threat(own: VehicleView, other: VehicleView, result: PairOutcome) -> T
     detail = f"{f.detail} (zone {f.zone})"
     if result.ambiguous:
         detail += f" (conflict probability {result.probability:.2f})"
-    return Threat(
-        vehicle_id=other.vehicle_id,
-        kind=f.kind,
-        level=result.level,
-        distance_m=f.gap_m,
-        closing_speed_mps=f.closing_mps,
-        ttc_s=f.ttc_s,
-        method="track",
-        zone=f.zone,
-        probability=min(result.probability, 1.0),
-        own_match_probability=own.position.probability,
-        other_match_probability=other.position.probability,
-        ambiguous=result.ambiguous,
-        detail=detail,
-        own_ends=own.ends.assumption,
-        other_ends=other.ends.assumption,
+    return _threat(
+        other.vehicle_id,
+        f.kind,
+        result.level,
+        f.gap_m,  # distance_m
+        f.closing_mps,
+        f.ttc_s,
+        "track",  # method
+        f.zone,
+        None,  # bearing_deg
+        min(result.probability, 1.0),
+        own.position.probability,  # own_match_probability
+        other.position.probability,  # other_match_probability
+        result.ambiguous,
+        detail,
+        own.ends.assumption,  # own_ends
+        other.ends.assumption,  # other_ends
+        False,  # held
+    )
+
+
+def sector_threat(
+    rule: SectorRule, hit: SectorHit, closing_speed_mps: float, note: str = ""
+) -> Threat:
+    """The threat of a vehicle inside the own sector (the paper's rule).
+
+    Parameters
+    ----------
+    rule : SectorRule
+        The sector it was found in.
+    hit : SectorHit
+    closing_speed_mps : float
+        How fast the planar distance shrinks, m/s (positive when closing).
+    note : str
+        Why the sector rule judged this pair (e.g. a vehicle not matched to the map).
+    """
+    detail = f"within {rule.d_col_m:g} m and ±{rule.half_angle_deg:g}° of own course"
+    return _threat(
+        hit.vehicle_id,
+        "sector",  # kind
+        "warning",  # level
+        hit.distance_m,
+        closing_speed_mps,
+        braking.time_to_collision(hit.distance_m, closing_speed_mps),
+        "sector",  # method
+        None,  # zone
+        hit.bearing_deg,
+        None,  # probability
+        None,  # own_match_probability
+        None,  # other_match_probability
+        False,  # ambiguous
+        f"{detail} ({note})" if note else detail,
+        None,  # own_ends
+        None,  # other_ends
+        False,  # held
     )
 
 
