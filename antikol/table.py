@@ -319,12 +319,6 @@ class VehicleTable:
             logger.info("vehicle %s dropped: dated beyond the table clock %.1f", vid, self._clock)
         return gone
 
-    def _control_clock(self) -> None:
-        """Control room: the upper median of the recent senders' newest times."""
-        median = self._recent.upper_median()
-        if median is not None:
-            self._advance(median)
-
     def _dissent_from(self, vid: str, t: float) -> list[str]:
         """Control room: a sender far behind the clock; reset it if they outnumber."""
         self._dissent[vid] = t
@@ -421,7 +415,12 @@ class VehicleTable:
         """
         vid = report.vehicle_id
         own = vid == self.own_id
-        expired = self.expire(report.t if own else None)
+        if own or self.time_source is not None:
+            expired = self.expire(report.t if own else None)
+        else:  # expire() without a time, inlined: checked at every report
+            heap = self._heap
+            due = bool(heap) and heap[0][0] < self._clock - self.expiry_s
+            expired = self._sweep([]) if due else []
         outcome = self._judge(report, own)
         if outcome is not None:
             if outcome == "stale" and self.own_id is None and not own:
@@ -436,13 +435,20 @@ class VehicleTable:
             result = TableUpdate("updated", expired=tuple(expired)) if expired else _UPDATED
         else:
             result = self._register(report, own, expired)
-        if result.accepted and self.own_id is None:
+        if self.own_id is None and result.accepted:
             self._recent.put(vid, report.t)
-            self._dissent.pop(vid, None)
-            self._control_clock()
-            more = self.expire()
-            if more:
-                result = TableUpdate(result.outcome, result.evicted, result.expired + tuple(more))
+            if self._dissent:
+                self._dissent.pop(vid, None)
+            median = self._recent.upper_median()  # the control-room clock
+            moved = median is not None and median > self._clock
+            if median is not None and moved:
+                self._advance(median)
+            if moved or self.time_source is not None:
+                more = self.expire()
+                if more:
+                    result = TableUpdate(
+                        result.outcome, result.evicted, result.expired + tuple(more)
+                    )
         return result
 
     def _judge(self, report: VehicleReport, own: bool) -> UpdateOutcome | None:
