@@ -46,6 +46,7 @@ from antikol.analysis.runs import (
 from antikol.analysis.views import CycleViews, VehicleView
 from antikol.kinds import LEVELS, Level, ThreatKind
 from trackmap import Path, TrackMap
+from trackmap.records import positional
 
 __all__ = ["PairEvaluator", "PairOutcome", "PairSettings"]
 
@@ -104,6 +105,12 @@ class PairOutcome:
     probability: float
     hold: bool
     ambiguous: bool
+
+
+#: Findings and outcomes by position (every field in its order; a cycle of 1000 clustered
+#: trams builds ~6,000 of each, and the recorded run checks every field of them).
+_finding = positional(Finding)
+_outcome = positional(PairOutcome)
 
 
 @dataclass(slots=True)
@@ -615,7 +622,7 @@ class PairEvaluator:
             other_view = views[t]
             level = LEVELS[lv]
             f = shown.finding(k, paths[pth].zone, other_view.vehicle_id, level)
-            out.setdefault(views[o].vehicle_id, {})[other_view.vehicle_id] = PairOutcome(
+            out.setdefault(views[o].vehicle_id, {})[other_view.vehicle_id] = _outcome(
                 level, f, w, hd, amb
             )
         return out
@@ -745,7 +752,7 @@ class _Shown:
         if self.capped[k]:
             detail += " (unconfirmed)"
         ttc = self.ttc[k]
-        return Finding(
+        return _finding(
             kind,
             level,
             gap,
