@@ -77,3 +77,31 @@ def test_closing_speeds_of_a_cycle_equal_those_hit_by_hit(seed, n, spread, lat0)
             got = closing[(own.vehicle_id, h.vehicle_id)]
             assert got.closing_speed_mps == expected
             assert (got.own, got.other, got.hit) == (own, by_id[h.vehicle_id], h)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 80),
+    spread=st.sampled_from([0.0005, 0.003]),
+    lat0=st.sampled_from([50.06, -33.9, 69.6]),
+)
+def test_the_fleet_form_gives_the_hits_and_closing_speeds_of_the_rule(seed, n, spread, lat0):
+    """A control room's cycle in arrays (hits and closing speeds at once, old reports not
+    hit) equals the rule's whole-fleet hits and their closing speeds."""
+    from antikol.analysis.fleetsector import fleet_sector
+    from antikol.analysis.sector import closing_speeds
+
+    reports, courses = _fleet(seed, n, spread, lat0)
+    rng = np.random.default_rng(seed + 3)
+    ages = np.where(rng.random(n) < 0.2, rng.uniform(9.0, 12.0, n), 0.0)
+    reports = [
+        VehicleReport(r.vehicle_id, 100.0 - float(a), r.lat, r.lon, float(v), r.course_deg)
+        for r, a, v in zip(reports, ages, rng.uniform(0.0, 20.0, n), strict=True)
+    ]
+    rule = SectorRule(half_angle_deg=45.0)
+    got = fleet_sector(rule, reports, courses, now=100.0, expiry_s=10.0, key="k")
+    hits = rule.evaluate_all(reports, courses, targets=[100.0 - r.t <= 10.0 for r in reports])
+    assert got.key == "k"
+    assert got.hits == {r.vehicle_id: h for r, h in zip(reports, hits, strict=True) if h}
+    assert got.closing == closing_speeds(reports, courses, hits)

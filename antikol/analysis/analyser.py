@@ -678,7 +678,7 @@ class Analyser:
     def _sector_hits(self, own: VehicleReport, now: float) -> list[SectorHit]:
         """The sector rule's hits of a vehicle among the others heard within the expiry:
         on board from the own vehicle alone, in a control room for every vehicle of the
-        time at once (:meth:`SectorRule.evaluate_all`)."""
+        time at once (:func:`~antikol.analysis.fleetsector.fleet_sector`)."""
         if self.own_id is None:
             return self._fleet_hits(now).hits.get(own.vehicle_id, [])
         course = self.courses.course(own.vehicle_id)
