@@ -24,6 +24,18 @@ def _fleet(seed: int, n: int, spread_deg: float, lat0: float):
     return reports, courses
 
 
+def _cycles(test):
+    """Run ``test`` on fleets of one cycle: a seed, a size, a spread (degrees), a latitude."""
+    return settings(max_examples=60, deadline=None)(
+        given(
+            seed=st.integers(0, 2**31),
+            n=st.integers(1, 80),
+            spread=st.sampled_from([0.0005, 0.003]),
+            lat0=st.sampled_from([50.06, -33.9, 69.6]),
+        )(test)
+    )
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     seed=st.integers(0, 2**31),
@@ -47,13 +59,7 @@ def test_whole_fleet_hits_equal_the_per_vehicle_rule(seed, n, spread, lat0, d_co
         assert batch[k] == expected
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    seed=st.integers(0, 2**31),
-    n=st.integers(1, 80),
-    spread=st.sampled_from([0.0005, 0.003]),
-    lat0=st.sampled_from([50.06, -33.9, 69.6]),
-)
+@_cycles
 def test_closing_speeds_of_a_cycle_equal_those_hit_by_hit(seed, n, spread, lat0):
     """One array call for every hit of a cycle gives the numbers of one call per hit (the
     own vehicle at its kept course, else its reported one), bit for bit."""
@@ -79,13 +85,7 @@ def test_closing_speeds_of_a_cycle_equal_those_hit_by_hit(seed, n, spread, lat0)
             assert (got.own, got.other, got.hit) == (own, by_id[h.vehicle_id], h)
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    seed=st.integers(0, 2**31),
-    n=st.integers(1, 80),
-    spread=st.sampled_from([0.0005, 0.003]),
-    lat0=st.sampled_from([50.06, -33.9, 69.6]),
-)
+@_cycles
 def test_the_fleet_form_gives_the_hits_and_closing_speeds_of_the_rule(seed, n, spread, lat0):
     """A control room's cycle in arrays (hits and closing speeds at once, old reports not
     hit) equals the rule's whole-fleet hits and their closing speeds."""
