@@ -15,7 +15,14 @@ from typing import NamedTuple
 import numpy as np
 
 from antikol.analysis.assessment import Assessment, assessment_of
-from antikol.analysis.sector import HitClosing, SectorHit, SectorRule, pair_closing_speeds
+from antikol.analysis.sector import (
+    HitClosing,
+    SectorHit,
+    SectorRule,
+    course_array,
+    latitudes_longitudes,
+    pair_closing_speeds,
+)
 from antikol.analysis.threats import sector_threat
 from antikol.report import VehicleReport
 
@@ -66,10 +73,9 @@ def fleet_sector(
         :func:`~antikol.analysis.sector.closing_speeds`, the same numbers.
     """
     n = len(reports)
-    lat = np.fromiter((r.lat for r in reports), dtype=float, count=n)
-    lon = np.fromiter((r.lon for r in reports), dtype=float, count=n)
+    lat, lon = latitudes_longitudes(reports)
     t = np.fromiter((r.t for r in reports), dtype=float, count=n)
-    course = np.array([np.nan if c is None else c for c in courses], dtype=float)
+    course = course_array(courses)
     pairs = rule.hit_pairs(lat, lon, course, now - t <= expiry_s)
     hits: dict[str, list[SectorHit]] = {}
     closing: dict[tuple[str, str], HitClosing] = {}

@@ -44,7 +44,9 @@ __all__ = [
     "SectorPairs",
     "SectorRule",
     "closing_speeds",
+    "course_array",
     "hit_closing_speed",
+    "latitudes_longitudes",
     "pair_closing_speeds",
 ]
 
@@ -174,11 +176,9 @@ class SectorRule:
         out: list[list[SectorHit]] = [[] for _ in range(n)]
         if n < 2:
             return out
-        lat = np.fromiter((r.lat for r in reports), dtype=float, count=n)
-        lon = np.fromiter((r.lon for r in reports), dtype=float, count=n)
-        course = np.array([np.nan if c is None else c for c in courses], dtype=float)
+        lat, lon = latitudes_longitudes(reports)
         seen = np.ones(n, dtype=bool) if targets is None else np.asarray(targets, dtype=bool)
-        pairs = self.hit_pairs(lat, lon, course, seen)
+        pairs = self.hit_pairs(lat, lon, course_array(courses), seen)
         for i, j, d, b in zip(
             pairs.own.tolist(),
             pairs.other.tolist(),
@@ -247,8 +247,7 @@ class SectorRule:
         own: VehicleReport, others: list[VehicleReport]
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """Planar distances (m) and bearings (deg) from the own vehicle, formulas (4)-(9)."""
-        lat = np.fromiter((o.lat for o in others), dtype=float, count=len(others))
-        lon = np.fromiter((o.lon for o in others), dtype=float, count=len(others))
+        lat, lon = latitudes_longitudes(others)
         return paper_offsets(own.lat, own.lon, lat, lon)
 
 
@@ -340,12 +339,26 @@ def closing_speeds(
     )
     speed = np.fromiter((r.speed_mps for r in reports), dtype=float, count=len(reports))
     reported = np.fromiter((r.course_deg for r in reports), dtype=float, count=len(reports))
-    kept = np.array([np.nan if c is None else c for c in courses], dtype=float)
-    closing = pair_closing_speeds(pairs, speed, kept, reported)
+    closing = pair_closing_speeds(pairs, speed, course_array(courses), reported)
     return {
         (reports[i].vehicle_id, h.vehicle_id): HitClosing(reports[i], reports[j], h, c)
         for (i, j, h), c in zip(rows, closing.tolist(), strict=True)
     }
+
+
+def course_array(courses: Sequence[float | None]) -> npt.NDArray[np.float64]:
+    """Courses as an array, degrees; NaN where a vehicle has none."""
+    return np.array([np.nan if c is None else c for c in courses], dtype=float)
+
+
+def latitudes_longitudes(
+    reports: Sequence[VehicleReport],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The reports' latitudes and longitudes as two arrays, degrees."""
+    n = len(reports)
+    lat = np.fromiter((r.lat for r in reports), dtype=float, count=n)
+    lon = np.fromiter((r.lon for r in reports), dtype=float, count=n)
+    return lat, lon
 
 
 def pair_closing_speeds(
