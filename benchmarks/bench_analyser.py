@@ -130,11 +130,8 @@ def time_numpy(batches: Sequence[list[VehicleReport]], warmup: int) -> float:
     return median_ms(times)
 
 
-def on_board(
-    net: trackmap.TrackMap, cycles: int, warmup: int, *, reported: bool = False
-) -> tuple[float, float, float]:
-    """(track-aware, sector rule, numpy) ms per on-board cycle: own tram + 32 others
-    (with ``reported``, the others send their own track positions)."""
+def on_board_fleet(net: trackmap.TrackMap) -> RandomFleet:
+    """Tram ``T0`` of a city of 400 at random places and its 32 nearest neighbours."""
     city = RandomFleet(net, 400, seed=3)
     xy = np.array(
         [net.point_at(int(e), float(o)) for e, o in zip(city.edges, city.offset, strict=True)]
@@ -142,6 +139,15 @@ def on_board(
     nearest = np.argsort(np.hypot(*(xy - xy[0]).T))[:33]
     for name in ("edges", "lengths", "offset", "direction", "speed"):
         setattr(city, name, getattr(city, name)[nearest])
+    return city
+
+
+def on_board(
+    net: trackmap.TrackMap, cycles: int, warmup: int, *, reported: bool = False
+) -> tuple[float, float, float]:
+    """(track-aware, sector rule, numpy) ms per on-board cycle: own tram + 32 others
+    (with ``reported``, the others send their own track positions)."""
+    city = on_board_fleet(net)
     batches = [city.cycle(float(c), reported=reported) for c in range(cycles)]
     out = []
     for make in (lambda: Analyser(track_map=net, own_id="T0"), lambda: Analyser(own_id="T0")):

@@ -33,7 +33,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
-from bench_analyser import RandomFleet, numpy_all_pairs
+from bench_analyser import RandomFleet, numpy_all_pairs, on_board_fleet
 
 import antikol.analysis.analyser as analyser_module
 import antikol.analysis.pairs as pairs_module
@@ -208,13 +208,7 @@ def main() -> None:
     args = ap.parse_args()
     net = trackmap.load_default()
     warm = 3
-    city = RandomFleet(net, 400, seed=3)
-    xy = np.array(
-        [net.point_at(int(e), float(o)) for e, o in zip(city.edges, city.offset, strict=True)]
-    )
-    nearest = np.argsort(np.hypot(*(xy - xy[0]).T))[:33]
-    for name in ("edges", "lengths", "offset", "direction", "speed"):
-        setattr(city, name, getattr(city, name)[nearest])
+    city = on_board_fleet(net)
     board = [city.cycle(float(c)) for c in range(25 if args.quick else 60)]
     phases = track_phases(net, board, warm, own_id="T0")
     phases["matcher, a batch of one fix (beside the cycle)"] = one_fix_ms(net, board)
