@@ -32,8 +32,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-import numpy as np
-from bench_analyser import RandomFleet, numpy_all_pairs, on_board_fleet
+from bench_analyser import RandomFleet, on_board_fleet, time_numpy
 
 import antikol.analysis.analyser as analyser_module
 import antikol.analysis.pairs as pairs_module
@@ -88,19 +87,6 @@ def counted_rows(phases: Phases) -> Iterator[None]:
         yield
     finally:
         pairs_module.expand_rows = original
-
-
-def numpy_ms(batches: Sequence[list[VehicleReport]], warmup: int) -> float:
-    times = []
-    for k, batch in enumerate(batches):
-        lat, lon = np.array([r.lat for r in batch]), np.array([r.lon for r in batch])
-        course = np.array([r.course_deg for r in batch])
-        speed = np.array([r.speed_mps for r in batch])
-        t0 = time.perf_counter()
-        numpy_all_pairs(lat, lon, course, speed)
-        if k >= warmup:
-            times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
 
 
 def run_cycles(
@@ -212,7 +198,7 @@ def main() -> None:
     board = [city.cycle(float(c)) for c in range(25 if args.quick else 60)]
     phases = track_phases(net, board, warm, own_id="T0")
     phases["matcher, a batch of one fix (beside the cycle)"] = one_fix_ms(net, board)
-    print_table("On board: own tram + 32, track-aware", phases, numpy_ms(board, warm))
+    print_table("On board: own tram + 32, track-aware", phases, time_numpy(board, warm))
 
     n = 300 if args.quick else 1000
     clustered = RandomFleet(net, n, seed=1)
@@ -220,13 +206,13 @@ def main() -> None:
     print_table(
         f"Control room: {n:,} clustered trams, track-aware",
         track_phases(net, batches, warm, own_id=None),
-        numpy_ms(batches, warm),
+        time_numpy(batches, warm),
     )
 
     small = RandomFleet(net, 32, seed=1)
     batches = [small.cycle(float(c)) for c in range(warm + (30 if args.quick else 100))]
     print_table("Control room: 32 trams, Analyser() without a map", sector_phases(batches, warm),
-                numpy_ms(batches, warm))  # fmt: skip
+                time_numpy(batches, warm))  # fmt: skip
     print(f"\n(medians over the cycles after {warm} warm-up cycles)")
 
 
