@@ -54,39 +54,34 @@ class Phases:
 
 
 @contextmanager
-def wrapped(owner: Any, name: str, phase: str, phases: Phases) -> Iterator[None]:
-    """Time every call of ``owner.name`` as ``phase`` while the block runs."""
+def wrapped(
+    owner: Any,
+    name: str,
+    phases: Phases,
+    *,
+    phase: str | None = None,
+    size: tuple[str, Callable[[Any], int]] | None = None,
+) -> Iterator[None]:
+    """While the block runs, time every call of ``owner.name`` as ``phase`` and/or record
+    ``size[1](result)`` under ``size[0]``."""
     original = getattr(owner, name)
 
-    def timed(*args: Any, **kwargs: Any) -> Any:
+    def instrumented(*args: Any, **kwargs: Any) -> Any:
         t0 = time.perf_counter()
         try:
-            return original(*args, **kwargs)
+            out = original(*args, **kwargs)
         finally:
-            phases.seconds[phase] += time.perf_counter() - t0
+            if phase is not None:
+                phases.seconds[phase] += time.perf_counter() - t0
+        if size is not None:
+            phases.sizes[size[0]].append(size[1](out))
+        return out
 
-    setattr(owner, name, timed)
+    setattr(owner, name, instrumented)
     try:
         yield
     finally:
         setattr(owner, name, original)
-
-
-@contextmanager
-def counted_rows(phases: Phases) -> Iterator[None]:
-    """Record the length of every row expansion of the pair evaluation."""
-    original = pairs_module.expand_rows
-
-    def counting(*args: Any) -> Any:
-        out = original(*args)
-        phases.sizes["expanded rows"].append(len(out[0]))
-        return out
-
-    setattr(pairs_module, "expand_rows", counting)  # noqa: B010 - instrumentation
-    try:
-        yield
-    finally:
-        pairs_module.expand_rows = original
 
 
 def run_cycles(
@@ -122,6 +117,10 @@ def run_cycles(
     }
 
 
+def _rows(expanded: tuple[Any, ...]) -> int:
+    return len(expanded[0])
+
+
 def track_phases(
     net: trackmap.TrackMap,
     batches: Sequence[list[VehicleReport]],
@@ -140,10 +139,10 @@ def track_phases(
             an.assess(r.vehicle_id)
 
     with (
-        wrapped(analyser_module.Analyser, "_flush", "positioning", phases),
-        wrapped(analyser_module, "build_views", "views (paths ahead)", phases),
-        wrapped(pairs_module.PairEvaluator, "evaluate", "pair evaluation", phases),
-        counted_rows(phases),
+        wrapped(analyser_module.Analyser, "_flush", phases, phase="positioning"),
+        wrapped(analyser_module, "build_views", phases, phase="views (paths ahead)"),
+        wrapped(pairs_module.PairEvaluator, "evaluate", phases, phase="pair evaluation"),
+        wrapped(pairs_module, "expand_rows", phases, size=("expanded rows", _rows)),
     ):
         return run_cycles(an, batches, warmup, phases, assess)
 
@@ -156,7 +155,7 @@ def sector_phases(batches: Sequence[list[VehicleReport]], warmup: int) -> dict[s
             an.assess(r.vehicle_id)
 
     name = "array evaluation and every assessment (first assess)"
-    with wrapped(analyser_module.Analyser, "_assess_sector_fleet", name, phases):
+    with wrapped(analyser_module.Analyser, "_assess_sector_fleet", phases, phase=name):
         return run_cycles(Analyser(), batches, warmup, phases, assess)
 
 
