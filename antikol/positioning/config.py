@@ -72,6 +72,9 @@ class PositioningConfig:
         that no plausible move reaches (``implausible_move_nats``) is relocated, and only
         on the second fix in a row that a relocation explains best (one stray fix beside
         the track, on another track the vehicle cannot have reached, is an outlier).
+        A relocation never lands on wrong-way running (unless the vehicle already runs
+        wrong way) nor, while the vehicle moves, against its reported course: those need a
+        move the map allows or a fresh start.
     transition_beta_m : float
         Scale of the transition likelihood, m (plus 10 % of the distance travelled; a tenth
         of that with an odometer).

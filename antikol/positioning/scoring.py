@@ -288,6 +288,15 @@ def score_fixes(
     # to an impossible history (but a plausible move, however poor, keeps the lineage: a
     # fix off along the track is an outlier, not a relocation)
     relocate = score0 + c.relocation_log_prior
+    # wrong-way running (and running against the reported course) is entered by a move
+    # the map allows (a crossover, a reversal at a standstill) or at a fresh start, never
+    # by a jump no route makes: a jump of the GPS bias puts the fixes of a tram on double
+    # track onto the other direction's track, where a hypothesis without the bias'
+    # history explains them better than the right one (which has learnt the old bias)
+    # for the seconds it takes to learn the new one
+    runs_right = reach.allowed[np.maximum(fleet.hs[prow, 0], 0)]
+    against_course = use_course[cv] & (np.abs(diff) > 90.0)
+    relocate = np.where((wrong & runs_right) | against_course, _NEG_INF, relocate)
     moved = ~use0 & (relocate > top) & ~plausible
     lse = np.where(use0, lse, np.logaddexp(lse, relocate))
     if moved.any():
