@@ -1,12 +1,14 @@
 """Track-selective positioning against the simulator's truth: easy GPS and street GPS.
 
 Run: ``python benchmarks/positioning_accuracy.py [--seeds 4 5 6] [--trams 12] [--minutes 15]
-[--figure reliability.png]``
+[--gps white urban feed] [--set NAME=VALUE ...] [--figure reliability.png]``
 
 For each GPS model of :mod:`antikol.sim` — ``white`` (white noise σ 3 m plus a 1.5 m
-Gauss–Markov bias, 10 % of fixes missing) and ``urban`` (:meth:`GpsModel.urban`: lateral
+Gauss–Markov bias, 10 % of fixes missing), ``urban`` (:meth:`GpsModel.urban`: lateral
 multipath bias of several metres that persists for minutes and jumps, heavy tails, outages,
-an odometer, no-fix reports in the tunnel) — a fleet is simulated on the embedded Kraków map
+an odometer, no-fix reports in the tunnel) and ``feed`` (the same receiver seen through an
+operator's feed without a fix-quality field: a report without a fix repeats the last
+position unflagged) — a fleet is simulated on the embedded Kraków map
 at up to 70 km/h and every report goes through :class:`antikol.positioning.Positioner`, one
 cycle at a time, as in the analyser (:func:`antikol.evaluation.positioning_accuracy`).
 
@@ -16,15 +18,20 @@ track running the tram's way, 10-s windows that no permitted route connects, the
 along-track RMS error of the estimates (and of the raw fixes projected on the track), and the
 reliability table (estimates binned by their ``probability`` against the share of them on
 the right track), and the wrong estimates and broken windows pooled over the seeds.
-``--figure`` draws the reliability diagram (needs matplotlib).
+``--set`` changes fields of :class:`~antikol.positioning.PositioningConfig` for the run
+(e.g. ``--set stale_fix_run_m=1e12`` takes every repeated position as a fix, as before
+stale reports were recognised). ``--figure`` draws the reliability diagram (needs
+matplotlib).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import trackmap
 from antikol.evaluation.positioning_accuracy import PositioningScore, positioning_accuracy
+from antikol.positioning import PositioningConfig
 from antikol.sim import GpsModel, Simulator, fleet
 
 
@@ -32,7 +39,25 @@ def _models() -> dict[str, GpsModel]:
     return {
         "white": GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10),
         "urban": GpsModel.urban(),
+        "feed": GpsModel.urban(fix_quality_field=False),
     }
+
+
+def _config(settings: list[str]) -> PositioningConfig:
+    """The default configuration with ``NAME=VALUE`` settings applied (numbers)."""
+    names = {f.name for f in dataclasses.fields(PositioningConfig)}
+    changes: dict[str, float] = {}
+    for item in settings:
+        name, sep, value = item.partition("=")
+        if not sep or name not in names:
+            raise SystemExit(f"--set {item!r}: expected NAME=VALUE with a PositioningConfig field")
+        try:
+            changes[name] = float(value)
+        except ValueError:
+            raise SystemExit(f"--set {item!r}: {value!r} is not a number") from None
+        if isinstance(getattr(PositioningConfig(), name), int):
+            changes[name] = int(changes[name])
+    return PositioningConfig(**changes)
 
 
 def _pooled_reliability(scores: list[PositioningScore]) -> list[tuple[float, float, int, int]]:
@@ -49,8 +74,19 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, nargs="+", default=[4, 5, 6])
     ap.add_argument("--trams", type=int, default=12)
     ap.add_argument("--minutes", type=float, default=15.0)
+    ap.add_argument(
+        "--gps", nargs="+", choices=sorted(_models()), default=["white", "urban", "feed"]
+    )
+    ap.add_argument(
+        "--set",
+        metavar="NAME=VALUE",
+        nargs="+",
+        default=[],
+        help="change PositioningConfig fields for the run",
+    )
     ap.add_argument("--figure", help="write the reliability diagram to this PNG")
     args = ap.parse_args()
+    config = _config(args.set)
     net = trackmap.load_default()
     results: dict[str, list[PositioningScore]] = {}
     print(
@@ -59,11 +95,13 @@ def main() -> None:
         "| along-track RMS error (raw fix) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for name, gps in _models().items():
+    models = _models()
+    for name in args.gps:
+        gps = models[name]
         for seed in args.seeds:
             specs = fleet(net, args.trams, seed)
             sim = Simulator(net, specs, gps=gps, seed=seed, default_speed_mps=70 / 3.6)
-            score = positioning_accuracy(net, sim.run(60.0 * args.minutes))
+            score = positioning_accuracy(net, sim.run(60.0 * args.minutes), config=config)
             results.setdefault(name, []).append(score)
             print(
                 f"| {name} | {seed} | {score.fixes:,} "

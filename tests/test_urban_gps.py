@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -165,6 +166,19 @@ def test_the_white_noise_model_reports_neither_odometer_nor_fix_quality(street):
     result = Simulator(street, [spec], gps=GpsModel(), seed=1).run(100.0)
     assert all(r.odometer_m is None and r.fix_quality is None for r in result.reports)
     assert result.fixes["W"].canyon is None
+
+
+def test_a_feed_without_a_fix_quality_field_repeats_the_last_position_unflagged(street):
+    # the same epochs and errors as the receiver that flags them, seen through a feed
+    # that has no fix-quality field: the reports without a fix are there, unmarked
+    spec = TramSpec("F", _north_route(street), stops=(), max_speed_mps=10.0)
+    flagged = Simulator(street, [spec], gps=GpsModel.urban(), seed=2).run(560.0).reports
+    gps = GpsModel.urban(fix_quality_field=False)
+    feed = Simulator(street, [spec], gps=gps, seed=2).run(560.0).reports
+    assert all(r.fix_quality is None for r in feed)
+    assert [dataclasses.replace(r, fix_quality=None) for r in flagged] == list(feed)
+    repeats = [b for a, b in itertools.pairwise(feed) if (a.lat, a.lon) == (b.lat, b.lon)]
+    assert len(repeats) >= sum(r.fix_quality == 0 for r in flagged) > 0
 
 
 def test_bad_urban_parameters_are_rejected():

@@ -12,6 +12,8 @@
   and along-track lag);
 * :mod:`antikol.positioning.kalman` — the closed-form along-track filter;
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);
+* :mod:`antikol.positioning.stale` — reports that repeat the last position while the
+  vehicle runs (no fix);
 * :mod:`antikol.positioning.config`, :mod:`antikol.positioning.records` — parameters and
   results.
 """

@@ -140,6 +140,10 @@ class PositioningConfig:
         emission log-likelihood is scaled by ``standstill_evidence_weight``: the white part
         of the GPS error is itself correlated at a standstill, so repeated fixes are not
         independent evidence.
+    stale_fix_run_m : float
+        A report that repeats the previous report's coordinates exactly after the vehicle
+        ran this far since its last fix (by its odometer, else its speeds) is no fix: the
+        feed kept the last position (see :mod:`antikol.positioning.stale`), m.
     reach_m : float
         Along-track distances between positions are precomputed up to this distance, m;
         farther moves (long outages) restart the vehicle from the evidence.
@@ -190,6 +194,7 @@ class PositioningConfig:
     relocalise_after: int = 5
     standstill_distance_m: float = 1.0
     standstill_evidence_weight: float = 0.2
+    stale_fix_run_m: float = 2.0
     reach_m: float = 400.0
 
     def __post_init__(self) -> None:

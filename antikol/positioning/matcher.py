@@ -78,6 +78,7 @@ from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
+from antikol.positioning.stale import stale_fixes
 from antikol.report import VehicleReport
 from trackmap import TrackMap
 
@@ -380,6 +381,14 @@ class Positioner:
             (math.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
         )
         no_fix = np.fromiter((r.fix_quality == 0 for r in reports), bool, n)
+        f = self._f
+        stale = ~no_fix & stale_fixes(
+            reports, [f.last[r] for r in rows.tolist()], f.t_fix[rows], f.odo_fix[rows],
+            f.v[rows], run_m=c.stale_fix_run_m,
+        )  # fmt: skip
+        if stale.any():
+            self.stats["stale_fix"] += int(np.count_nonzero(stale))
+            no_fix |= stale
         lon = np.fromiter((r.lon for r in reports), float, n)
         lat = np.fromiter((r.lat for r in reports), float, n)
         xs, ys = self.net.to_local(lon, lat)

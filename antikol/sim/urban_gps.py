@@ -96,7 +96,8 @@ class UrbanGpsModel:
     position fix (an outage or a tunnel, once the tram had a first fix) still yields a
     report with ``fix_quality = 0``, the last reported position and course, the wheel speed
     (true speed plus N(0, ``speed_sigma_mps``²)) and the odometer; reports with a fix carry
-    ``fix_quality = 1``.
+    ``fix_quality = 1``. Without ``fix_quality_field`` (an operator's feed, GTFS-realtime)
+    no report carries a fix quality: those without a fix repeat the last position unflagged.
 
     Attributes
     ----------
@@ -104,7 +105,7 @@ class UrbanGpsModel:
     jump_interval_s, outlier_rate, outlier_sigma_m, dropout_open_hz, dropout_canyon_hz,
     dropout_mean_s, missing_rate, tunnel_dropout, tunnel_reacquire_s, rate_hz,
     speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, odometer,
-    odometer_scale_sigma, odometer_resolution_m, report_without_fix
+    odometer_scale_sigma, odometer_resolution_m, report_without_fix, fix_quality_field
         As above (metres, seconds, Hz, probabilities, m/s, degrees).
     canyon_open, canyon_double_track : float
         Canyon factor of track without and with a parallel opposite-direction track.
@@ -137,6 +138,7 @@ class UrbanGpsModel:
     odometer_scale_sigma: float = 0.005
     odometer_resolution_m: float = 0.1
     report_without_fix: bool = True
+    fix_quality_field: bool = True
     canyon_open: float = 0.2
     canyon_double_track: float = 0.8
     canyon_spread: float = 0.4
@@ -347,7 +349,16 @@ def observe_urban(
             quality[m] = 0
     idx = np.flatnonzero(available | no_fix)
     reports = make_reports(
-        spec, net, ep, idx, rx, ry, rspeed, rcourse, fix_quality=quality, odometer_m=odometer
+        spec,
+        net,
+        ep,
+        idx,
+        rx,
+        ry,
+        rspeed,
+        rcourse,
+        fix_quality=quality if gps.fix_quality_field else None,
+        odometer_m=odometer,
     )
     log = FixLog(
         vehicle_id=spec.vehicle_id,
