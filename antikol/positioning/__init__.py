@@ -12,8 +12,8 @@
   and along-track lag);
 * :mod:`antikol.positioning.kalman` — the closed-form along-track filter;
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);
-* :mod:`antikol.positioning.stale` — reports that repeat the last position while the
-  vehicle runs (no fix);
+* :mod:`antikol.positioning.feedfaults` — faults of a feed that no field flags (a position
+  repeated while the vehicle runs, an odometer reset);
 * :mod:`antikol.positioning.config`, :mod:`antikol.positioning.records` — parameters and
   results.
 """

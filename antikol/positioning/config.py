@@ -143,7 +143,7 @@ class PositioningConfig:
     stale_fix_run_m : float
         A report that repeats the previous report's coordinates exactly after the vehicle
         ran this far since its last fix (by its odometer, else its speeds) is no fix: the
-        feed kept the last position (see :mod:`antikol.positioning.stale`), m.
+        feed kept the last position (see :mod:`antikol.positioning.feedfaults`), m.
     reach_m : float
         Along-track distances between positions are precomputed up to this distance, m;
         farther moves (long outages) restart the vehicle from the evidence.

@@ -61,11 +61,10 @@ from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
+from antikol.positioning.feedfaults import odometer_resets, stale_fixes
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
-from antikol.positioning.fleet import (
-    FleetState,
-)
+from antikol.positioning.fleet import FleetState
 from antikol.positioning.kalman import track_estimate
 from antikol.positioning.lineage import plan_slots
 from antikol.positioning.outputs import (
@@ -78,7 +77,6 @@ from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
-from antikol.positioning.stale import stale_fixes
 from antikol.report import VehicleReport
 from trackmap import TrackMap
 
@@ -381,14 +379,19 @@ class Positioner:
             (math.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
         )
         no_fix = np.fromiter((r.fix_quality == 0 for r in reports), bool, n)
+        # faults of the feed: a reset odometer leaves no baseline (this step runs on the
+        # speeds), a repeated position while the vehicle runs on is no fix
         f = self._f
+        reset = odometer_resets(odo, f.odo[rows])
+        f.odo[rows[reset]] = f.odo_fix[rows[reset]] = np.nan
         stale = ~no_fix & stale_fixes(
             reports, [f.last[r] for r in rows.tolist()], f.t_fix[rows], f.odo_fix[rows],
             f.v[rows], run_m=c.stale_fix_run_m,
         )  # fmt: skip
-        if stale.any():
-            self.stats["stale_fix"] += int(np.count_nonzero(stale))
-            no_fix |= stale
+        for name, happened in (("odometer_reset", reset), ("stale_fix", stale)):
+            if happened.any():
+                self.stats[name] += int(np.count_nonzero(happened))
+        no_fix |= stale
         lon = np.fromiter((r.lon for r in reports), float, n)
         lat = np.fromiter((r.lat for r in reports), float, n)
         xs, ys = self.net.to_local(lon, lat)

@@ -1,8 +1,9 @@
-"""Reports that repeat the last position while the vehicle runs on (issue 12: real feeds).
+"""Faults of a feed that no field flags (issue 12: real feeds).
 
 An operator's feed keeps sending the last position when the receiver has no fix, with no
-field to say so. :func:`antikol.positioning.stale.stale_fixes` tells those reports from
-fixes; the :class:`Positioner` dead-reckons over them.
+field to say so, and may report the distance run since the start of the trip (back to 0
+at every trip). :mod:`antikol.positioning.feedfaults` recognises both; the
+:class:`Positioner` dead-reckons over the repeats and runs the reset step on the speeds.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from hypothesis import strategies as st
 import trackmap
 from antikol import VehicleReport
 from antikol.positioning import Positioner
-from antikol.positioning.stale import stale_fixes
+from antikol.positioning.feedfaults import ODOMETER_BACK_M, odometer_resets, stale_fixes
 from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture
 from tests._paths import reports_along
 
@@ -78,6 +79,18 @@ def test_a_new_position_never_is_stale(lat, lon, dlat, dlon, speed):
     assert not _one(now, before, t_fix=100.0, odo_fix=1000.0)
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    before=st.one_of(st.just(math.nan), st.floats(0.0, 1e7)),
+    change=st.floats(-1e7, 1e7),
+    missing=st.booleans(),
+)
+def test_an_odometer_reset_is_a_reading_that_went_back(before, change, missing):
+    now = math.nan if missing else before + change
+    got = bool(odometer_resets(np.array([now]), np.array([before]))[0])
+    assert got == (now <= before - ODOMETER_BACK_M)  # (False where either is NaN)
+
+
 def test_no_previous_report_or_no_fix_yet_is_not_stale():
     r = VehicleReport("V", 100.0, 50.0, 20.0, 10.0, 0.0, odometer_m=1000.0)
     assert not _one(r, None, t_fix=math.nan, odo_fix=math.nan)
@@ -133,3 +146,28 @@ def test_a_standing_tram_whose_receiver_holds_its_position_stays_matched(straigh
     assert pos.stats["stale_fix"] == 0
     assert out[-1].status == "confident"
     assert out[-1].offset_m == pytest.approx(120.0, abs=3.0)
+
+
+@pytest.mark.parametrize("outage", [False, True])
+def test_an_odometer_reset_to_zero_at_a_new_trip_leaves_the_position_where_it_is(straight, outage):
+    # the feed's odometer counts from the start of the trip: 5100 m, then 3 m a second
+    # later at 10 m/s; taken at face value the step was a standstill and the tram was
+    # reported ~9 m behind, confident, for half a minute (with the tunnel after it, all
+    # the way through)
+    speed = 10.0
+    t = np.arange(0.0, 40.0, 1.0)
+    reports = reports_along("V", STRAIGHT_LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME)
+    reports = [
+        dataclasses.replace(
+            r,
+            odometer_m=5000.0 + speed * r.t if r.t < 10.0 else 3.0 + speed * (r.t - 10.0),
+            fix_quality=0 if outage and 12 <= k < 27 else 1,
+        )
+        for k, r in enumerate(reports)
+    ]
+    pos = Positioner(straight)
+    out = [pos.update(r) for r in reports]
+    for k, p in enumerate(out):
+        assert p.status == "confident", k
+        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
+    assert pos.stats["odometer_reset"] == 1
