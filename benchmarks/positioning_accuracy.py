@@ -13,11 +13,12 @@ at up to 70 km/h and every report goes through :class:`antikol.positioning.Posit
 cycle at a time, as in the analyser (:func:`antikol.evaluation.positioning_accuracy`).
 
 Printed: right track and direction on double track, right branch 40–60 m past a facing
-switch, the share of ``confident`` estimates that are on the wrong track, moving fixes on a
-track running the tram's way, 10-s windows that no permitted route connects, the
-along-track RMS error of the estimates (and of the raw fixes projected on the track), and the
-reliability table (estimates binned by their ``probability`` against the share of them on
-the right track), and the wrong estimates and broken windows pooled over the seeds.
+switch (and of the reports with a position fix alone), the share of ``confident``
+estimates that are on the wrong track, moving fixes on a track running the tram's way,
+10-s windows that no permitted route connects, the along-track RMS error of the estimates
+(and of the raw fixes projected on the track), the reliability table (estimates binned by
+their ``probability`` against the share of them on the right track), and the wrong
+estimates and broken windows pooled over the seeds.
 ``--set`` changes fields of :class:`~antikol.positioning.PositioningConfig` for the run
 (e.g. ``--set stale_fix_run_m=1e12`` takes every repeated position as a fix, as before
 stale reports were recognised). ``--figure`` draws the reliability diagram (needs
@@ -90,7 +91,8 @@ def main() -> None:
     net = trackmap.load_default()
     results: dict[str, list[PositioningScore]] = {}
     print(
-        "| GPS | seed | fixes | right track, double track | right branch past a switch "
+        "| GPS | seed | fixes | right track, double track "
+        "| right branch past a switch (with a fix) "
         "| confident and wrong | moving, right way | disconnected 10-s windows "
         "| along-track RMS error (raw fix) |"
     )
@@ -107,6 +109,7 @@ def main() -> None:
                 f"| {name} | {seed} | {score.fixes:,} "
                 f"| {100 * score.double_track_right_share:.2f} % "
                 f"| {100 * score.branch_accuracy:.2f} % "
+                f"({100 * score.measured_branch_accuracy:.2f} %) "
                 f"| {100 * score.confident_wrong_share:.2f} % of {score.confident_fixes:,} "
                 f"| {100 * score.right_way_share:.2f} % "
                 f"| {100 * score.disconnected_share:.1f} % of {score.windows:,} "
@@ -124,7 +127,7 @@ def main() -> None:
         print(f"| {lo:.2f}–{hi:.2f} | " + " | ".join(cells) + " |")
     print("\nPooled over the seeds: estimates that are wrong, and windows no route connects")
     print(
-        "\n| GPS | double track: wrong of | past a switch: wrong of "
+        "\n| GPS | double track: wrong of | past a switch: wrong of (with a fix) "
         "| confident: wrong of | disconnected windows of |"
     )
     print("|---|---:|---:|---:|---:|")
@@ -138,6 +141,7 @@ def main() -> None:
         print(
             f"| {name} | {wrong('double_track_fixes', 'double_track_right')} "
             f"| {wrong('after_switch_fixes', 'after_switch_correct')} "
+            f"({wrong('after_switch_measured', 'after_switch_measured_correct')}) "
             f"| {sum(s.confident_wrong for s in scores):,} of {confident:,} "
             f"| {sum(s.disconnected_windows for s in scores):,} of "
             f"{sum(s.windows for s in scores):,} |"

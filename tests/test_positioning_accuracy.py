@@ -122,6 +122,14 @@ def test_a_feed_that_repeats_the_last_position_unflagged_positions_as_well(feed)
     assert feed.disconnected_share <= 0.004
 
 
+def test_past_switches_the_reports_with_a_fix_are_told_by_the_receiver_not_the_feed(urban, feed):
+    # the split counts what the receiver had (the simulator's log), so the unflagged feed
+    # and the flagged receiver of the same run agree; the 98 % holds with a fix
+    assert feed.after_switch_measured == urban.after_switch_measured > 100
+    assert urban.after_switch_measured <= urban.after_switch_fixes
+    assert urban.measured_branch_accuracy >= 0.98
+
+
 # -- wrong-way running (a hook for positioning) ------------------------------------------
 @pytest.fixture(scope="module")
 def wrong_way():

@@ -92,7 +92,8 @@ class FixEvaluation:
     est_wrong_way : bool
         The estimate says it runs wrong way.
     has_fix : bool
-        The report carried a position fix (``fix_quality`` not 0).
+        The receiver had a position fix at the report (the simulator's fix log: a feed's
+        report may repeat the last position without saying so).
     edge_id, direction : int or None
     offset_m : float or None
         The estimate (None when unmatched).
@@ -153,6 +154,9 @@ class PositioningScore:
         ``track_tolerance_m`` along it).
     after_switch_fixes, after_switch_correct : int
         Fixes 40–60 m past a facing switch and those on the right branch.
+    after_switch_measured, after_switch_measured_correct : int
+        The same for the reports with a position fix (the others are dead-reckoned
+        through an outage, with nothing to tell the branch by until the next fix).
     along_rmse_m, raw_along_rmse_m : float
         Along-track RMS error of the filtered position and of the raw fix projected on
         the true track, m.
@@ -175,6 +179,8 @@ class PositioningScore:
     double_track_right: int = 0
     after_switch_fixes: int = 0
     after_switch_correct: int = 0
+    after_switch_measured: int = 0
+    after_switch_measured_correct: int = 0
     along_rmse_m: float = math.nan
     raw_along_rmse_m: float = math.nan
     unmatched: int = 0
@@ -198,6 +204,11 @@ class PositioningScore:
     @property
     def branch_accuracy(self) -> float:
         return self.after_switch_correct / max(self.after_switch_fixes, 1)
+
+    @property
+    def measured_branch_accuracy(self) -> float:
+        """The share on the right branch past a switch of the reports with a fix."""
+        return self.after_switch_measured_correct / max(self.after_switch_measured, 1)
 
     @property
     def confident_wrong_share(self) -> float:
@@ -228,6 +239,8 @@ class PositioningScore:
             "double_track_fixes": self.double_track_fixes,
             "branch_accuracy_50m_after_switch": round(self.branch_accuracy, 4),
             "after_switch_fixes": self.after_switch_fixes,
+            "branch_accuracy_with_a_fix": round(self.measured_branch_accuracy, 4),
+            "after_switch_with_a_fix": self.after_switch_measured,
             "confident_wrong_share": round(self.confident_wrong_share, 5),
             "confident_fixes": self.confident_fixes,
             "right_way_share_moving": round(self.right_way_share, 4),
@@ -367,6 +380,18 @@ def evaluate_fixes(
     return [FixEvaluation(double_track=bool(double[k]), **row) for k, row in enumerate(rows)]
 
 
+def _had_fix(result: SimulationResult, r: Any) -> bool:
+    """Whether the receiver had a position fix at report ``r`` (by the simulator's log;
+    by the report's flag where there is no log of its vehicle)."""
+    log = result.fixes.get(r.vehicle_id)
+    if log is None or not len(log.t_s):
+        return bool(r.fix_quality != 0)
+    k = int(np.searchsorted(log.t_s, r.t))
+    if k < len(log.t_s) and log.t_s[k] == r.t:
+        return bool(log.available[k])
+    return bool(r.fix_quality != 0)
+
+
 def _antenna_before_route(result: SimulationResult, spec: Any, t: float) -> bool:
     """A tram's first metres: its antenna is still behind the start of its route."""
     truth = result.truth[spec.vehicle_id]
@@ -392,7 +417,7 @@ def _judge(
     matched = est.matched and est.edge_id is not None and est.offset_m is not None
     right_track = correct = right_way = False
     along = raw = math.nan
-    has_fix = r.fix_quality != 0
+    has_fix = _had_fix(result, r)
     if matched:
         if est.edge_id is None or est.offset_m is None or est.direction is None:
             raise RuntimeError("a matched estimate without a track position")  # pragma: no cover
@@ -558,6 +583,8 @@ def positioning_accuracy(
         double_track_right=sum(e.double_track and e.right_track for e in evs),
         after_switch_fixes=sum(e.after_switch for e in evs),
         after_switch_correct=sum(e.after_switch and e.correct for e in evs),
+        after_switch_measured=sum(e.after_switch and e.has_fix for e in evs),
+        after_switch_measured_correct=sum(e.after_switch and e.has_fix and e.correct for e in evs),
         along_rmse_m=float(np.sqrt(np.mean(np.square(errs)))) if errs else math.nan,
         raw_along_rmse_m=float(np.sqrt(np.mean(np.square(raw)))) if raw else math.nan,
         unmatched=len(evs) - len(matched),
