@@ -117,17 +117,24 @@ def _frozen_run(*, speed: float, odometer: bool, freeze: range) -> list[VehicleR
     return reports
 
 
+def _followed(net, reports: list[VehicleReport], speed: float) -> Positioner:
+    """Position the reports of a tram running from 100 m at ``speed`` (m/s), one a
+    second; every position must be confident and within 3 m of the truth."""
+    pos = Positioner(net)
+    for k, r in enumerate(reports):
+        p = pos.update(r)
+        assert p.status == "confident", k
+        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
+    return pos
+
+
 @pytest.mark.parametrize("odometer", [True, False])
 def test_a_frozen_position_does_not_pull_a_running_tram_back(straight, odometer):
     # eight reports repeat the last fix while the tram runs on at 10 m/s: it used to be
     # reported 40-80 m behind, confident, then jump forward when the fixes came back
     speed = 10.0
     reports = _frozen_run(speed=speed, odometer=odometer, freeze=range(10, 18))
-    pos = Positioner(straight)
-    out = [pos.update(r) for r in reports]
-    for k, p in enumerate(out):
-        assert p.status == "confident", k
-        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
+    pos = _followed(straight, reports, speed)
     assert pos.stats["stale_fix"] == 8
     assert pos.stats["reset_after_rejections"] == 0
 
@@ -165,9 +172,5 @@ def test_an_odometer_reset_to_zero_at_a_new_trip_leaves_the_position_where_it_is
         )
         for k, r in enumerate(reports)
     ]
-    pos = Positioner(straight)
-    out = [pos.update(r) for r in reports]
-    for k, p in enumerate(out):
-        assert p.status == "confident", k
-        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
+    pos = _followed(straight, reports, speed)
     assert pos.stats["odometer_reset"] == 1

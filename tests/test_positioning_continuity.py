@@ -368,21 +368,27 @@ def test_carried_over_a_node_a_hypothesis_remembers_the_track_it_came_by(merge_n
     assert int(fleet.hv[0, 1]) == -1
 
 
+def _replay_recorded(net, name: str, vehicle_id: str) -> list:
+    """The positions of a recorded fix sequence (``tests/data/<name>``), one by one."""
+    data = json.loads((Path(__file__).parent / "data" / name).read_text())
+    pos = Positioner(net)
+    out = []
+    for t, lat, lon, speed, course, odometer, quality in data["reports"]:
+        report = VehicleReport(
+            vehicle_id, t, lat, lon, speed, course, odometer_m=odometer, fix_quality=quality
+        )
+        out.append(pos.update(report))
+    return out
+
+
 def test_one_stray_fix_beside_a_merging_track_does_not_relocate_the_tram():
     # street GPS (the simulator's urban model): a tram runs through a curve towards a
     # trailing switch; one fix lands on the other track that joins there, which no move
     # from the tram's track reaches, and agrees with its heading. It used to be taken as
     # a relocation at probability 0.997: the position went over to the other track and
     # back, "confident" all along
-    data = json.loads((Path(__file__).parent / "data" / _STRAY_FIX).read_text())
     net = trackmap.load_default()
-    pos = Positioner(net)
-    out = []
-    for t, lat, lon, speed, course, odometer, quality in data["reports"]:
-        report = VehicleReport(
-            "T02", t, lat, lon, speed, course, odometer_m=odometer, fix_quality=quality
-        )
-        out.append(pos.update(report))
+    out = _replay_recorded(net, _STRAY_FIX, "T02")
     assert all(p.matched for p in out[5:])
     for p, q in itertools.pairwise(out[5:]):
         ahead = net.route_distance(
@@ -401,15 +407,7 @@ def test_a_bias_jump_onto_the_other_direction_track_is_no_wrong_way_running():
     # the course agreeing with both). No move reaches the other track; a relocation
     # there, without the old bias to explain away, used to win within three fixes and
     # be reported wrong-way running at probability 0.99 as the tram stopped
-    data = json.loads((Path(__file__).parent / "data" / _BIAS_JUMP).read_text())
-    net = trackmap.load_default()
-    pos = Positioner(net)
-    out = []
-    for t, lat, lon, speed, course, odometer, quality in data["reports"]:
-        report = VehicleReport(
-            "T05", t, lat, lon, speed, course, odometer_m=odometer, fix_quality=quality
-        )
-        out.append(pos.update(report))
+    out = _replay_recorded(trackmap.load_default(), _BIAS_JUMP, "T05")
     settled = out[10:]  # from t = 570 s, the fixes 10 m beside the track for 20 s
     assert {(p.edge_id, p.direction) for p in settled} == {(out[0].edge_id, out[0].direction)}
     assert not any(p.wrong_way for p in out)
