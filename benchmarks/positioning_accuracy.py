@@ -1,16 +1,18 @@
 """Track-selective positioning against the simulator's truth: easy GPS and street GPS.
 
 Run: ``python benchmarks/positioning_accuracy.py [--seeds 4 5 6] [--trams 12] [--minutes 15]
-[--gps white urban feed] [--set NAME=VALUE ...] [--figure reliability.png]``
+[--gps white urban feed late] [--set NAME=VALUE ...] [--figure reliability.png]``
 
 For each GPS model of :mod:`antikol.sim` — ``white`` (white noise σ 3 m plus a 1.5 m
 Gauss–Markov bias, 10 % of fixes missing), ``urban`` (:meth:`GpsModel.urban`: lateral
 multipath bias of several metres that persists for minutes and jumps, heavy tails, outages,
-an odometer, no-fix reports in the tunnel) and ``feed`` (the same receiver seen through an
+an odometer, no-fix reports in the tunnel), ``feed`` (the same receiver seen through an
 operator's feed without a fix-quality field: a report without a fix repeats the last
-position unflagged) — a fleet is simulated on the embedded Kraków map
-at up to 70 km/h and every report goes through :class:`antikol.positioning.Positioner`, one
-cycle at a time, as in the analyser (:func:`antikol.evaluation.positioning_accuracy`).
+position unflagged) and ``late`` (the same receiver's output 1 s old when the report is
+stamped, the odometer current: not run unless asked, ``--gps late``) — a fleet is simulated
+on the embedded Kraków map at up to 70 km/h and every report goes through
+:class:`antikol.positioning.Positioner`, one cycle at a time, as in the analyser
+(:func:`antikol.evaluation.positioning_accuracy`).
 
 Printed: right track and direction on double track, right branch 40–60 m past a facing
 switch (and of the reports with a position fix alone), the share of ``confident``
@@ -41,6 +43,7 @@ def _models() -> dict[str, GpsModel]:
         "white": GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10),
         "urban": GpsModel.urban(),
         "feed": GpsModel.urban(fix_quality_field=False),
+        "late": GpsModel.urban(latency_s=1.0),
     }
 
 

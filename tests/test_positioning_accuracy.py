@@ -130,6 +130,20 @@ def test_past_switches_the_reports_with_a_fix_are_told_by_the_receiver_not_the_f
     assert urban.measured_branch_accuracy >= 0.98
 
 
+def test_fixes_a_second_late_cost_little_once_their_latency_is_learnt(urban):
+    # the same receiver, its output 1 s old when stamped: before the latency was learnt
+    # the along-track error was 7.5-8.2 m on seeds 4-6 (2.0-2.2 m on time)
+    net = trackmap.load_default()
+    gps = GpsModel.urban(latency_s=1.0)
+    late = positioning_accuracy(
+        net,
+        Simulator(net, fleet(net, 12, 4), gps=gps, seed=4, default_speed_mps=70 / 3.6).run(600.0),
+    )
+    assert late.along_rmse_m <= 1.25 * urban.along_rmse_m
+    assert late.double_track_right_share >= 0.9985
+    assert late.confident_wrong_share <= 0.005
+
+
 # -- wrong-way running (a hook for positioning) ------------------------------------------
 @pytest.fixture(scope="module")
 def wrong_way():

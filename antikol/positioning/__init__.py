@@ -11,6 +11,7 @@
 * :mod:`antikol.positioning.fixerror` — each hypothesis' filter of its fix error (GPS bias
   and along-track lag);
 * :mod:`antikol.positioning.kalman` — the closed-form along-track filter;
+* :mod:`antikol.positioning.latency` — how old each vehicle's fixes are when stamped;
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);
 * :mod:`antikol.positioning.feedfaults` — faults of a feed that no field flags (a position
   repeated while the vehicle runs, an odometer reset);

@@ -9,6 +9,8 @@ candidate place of that fix shares the error, so the lineage's progress jumps an
 restarted filter — the reported position — jumped with it, then back a second later. Now the
 first gated innovation is taken as an outlier: the measurement is dropped and the filter keeps
 its prediction. Only a second one in a row (the position really is elsewhere) restarts it.
+A fix that is older than its report (:mod:`antikol.positioning.latency`) is taken as the
+place the vehicle had then, plus the distance it has run since at its reported speed.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import numpy.typing as npt
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.kalman import track_odometer_step, track_predict, track_update
+from antikol.positioning.latency import learn_latency
 
 __all__ = ["run_track_filters"]
 
@@ -59,6 +62,28 @@ def run_track_filters(
     c = config
     kf = fleet.kf
     t, speed, odo, along = measured
+    lineage_progress = progress
+    # a late fix shows where the vehicle was: it has run on since, at its speed
+    since_fix = np.maximum(t - fleet.t_fix[done], 0.0)
+    ran = np.where(
+        np.isfinite(odo) & np.isfinite(fleet.odo_fix[done]),
+        odo - fleet.odo_fix[done],
+        0.5 * (speed + fleet.v[done]) * since_fix,
+    )
+    fleet.run[done] += np.where(np.isfinite(ran), np.maximum(ran, 0.0), 0.0)
+    latency = learn_latency(
+        fleet,
+        done,
+        speed,
+        fleet.run[done],
+        progress,
+        along,
+        restart,
+        prior=(c.fix_latency_s, c.fix_latency_sigma_s),
+        offset_rate_m2_s=2.0 * c.bias_sigma_m**2 / c.bias_tau_s,
+        dt_s=np.where(np.isfinite(since_fix), since_fix, 0.0),
+    )
+    progress = progress + speed * latency
     reset = restart | np.isnan(kf.t[done])
     r = done[reset]
     kf.t[r], kf.s[r], kf.v[r] = t[reset], progress[reset], speed[reset]
@@ -98,4 +123,4 @@ def run_track_filters(
     fleet.gated[done] = np.where(forgive, 1, 0)
     stats["filter_reset"] += resets + int(np.count_nonzero(again))
     stats["along_outlier"] += int(np.count_nonzero(forgive))
-    fleet.z[done] = progress
+    fleet.z[done] = lineage_progress

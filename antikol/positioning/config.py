@@ -140,6 +140,12 @@ class PositioningConfig:
         emission log-likelihood is scaled by ``standstill_evidence_weight``: the white part
         of the GPS error is itself correlated at a standstill, so repeated fixes are not
         independent evidence.
+    fix_latency_s, fix_latency_sigma_s : float
+        How old a fix is when its report is stamped, s (an AVL unit that stamps its reports
+        when it sends them): the along-track filter takes the fix as the place the vehicle
+        had then and adds the distance run since at the reported speed. The latency is
+        learnt per vehicle from its run (:mod:`antikol.positioning.latency`), from this
+        prior mean and standard deviation; a standard deviation of 0 keeps the mean.
     stale_fix_run_m : float
         A report that repeats the previous report's coordinates exactly after the vehicle
         ran this far since its last fix (by its odometer, else its speeds) is no fix: the
@@ -194,6 +200,8 @@ class PositioningConfig:
     relocalise_after: int = 5
     standstill_distance_m: float = 1.0
     standstill_evidence_weight: float = 0.2
+    fix_latency_s: float = 0.0
+    fix_latency_sigma_s: float = 1.0
     stale_fix_run_m: float = 2.0
     reach_m: float = 400.0
 

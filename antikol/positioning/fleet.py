@@ -26,7 +26,10 @@ IntArray = npt.NDArray[np.int64]
 #: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
 SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", *FIX_ERROR_FIELDS)
 #: Per-vehicle float arrays of the fleet state.
-VEHICLE_FIELDS = ("t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z")
+VEHICLE_FIELDS = (
+    "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
+    "run", "lc", "lt", "lpcc", "lpct", "lptt",
+)  # fmt: skip
 
 
 @dataclass
@@ -62,7 +65,8 @@ class FleetState:
     # per vehicle: last fix time (s), local position (m), reported speed (m/s), odometer
     # (m), odometer and time at the last GPS position, lineage progress at the last fix (m),
     # probability of the reported place, rejections, confident matches and along-track
-    # innovations beyond the gate in a row
+    # innovations beyond the gate in a row; the distance run (m) and the latency filter
+    # (:mod:`antikol.positioning.latency`: offset, m, latency, s, and their covariance)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -71,6 +75,12 @@ class FleetState:
     odo_fix: FloatArray = field(init=False)
     t_fix: FloatArray = field(init=False)
     z: FloatArray = field(init=False)
+    run: FloatArray = field(init=False)
+    lc: FloatArray = field(init=False)
+    lt: FloatArray = field(init=False)
+    lpcc: FloatArray = field(init=False)
+    lpct: FloatArray = field(init=False)
+    lptt: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -122,9 +132,10 @@ class FleetState:
         self.hs[row] = -1
         self.hp[row] = -math.inf
         self.hv[row] = -1.0
-        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix"):
+        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt"):
             getattr(self, name)[row] = np.nan
-        self.v[row] = self.z[row] = self.place[row] = 0.0
+        self.v[row] = self.z[row] = self.place[row] = self.run[row] = 0.0
+        self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
         self.rejected[row] = self.confident_run[row] = self.gated[row] = 0
         self.unmatched[row] = False
         self.kf.t[row] = np.nan

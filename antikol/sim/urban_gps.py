@@ -96,8 +96,11 @@ class UrbanGpsModel:
     position fix (an outage or a tunnel, once the tram had a first fix) still yields a
     report with ``fix_quality = 0``, the last reported position and course, the wheel speed
     (true speed plus N(0, ``speed_sigma_mps``²)) and the odometer; reports with a fix carry
-    ``fix_quality = 1``. Without ``fix_quality_field`` (an operator's feed, GTFS-realtime)
-    no report carries a fix quality: those without a fix repeat the last position unflagged.
+    ``fix_quality = 1``. With ``latency_s`` the receiver's position, speed and course are
+    that old (rounded to whole epochs) when the report is stamped, the odometer is not (an
+    AVL unit that stamps its reports when it sends them). Without ``fix_quality_field`` (an
+    operator's feed, GTFS-realtime) no report carries a fix quality: those without a fix
+    repeat the last position unflagged.
 
     Attributes
     ----------
@@ -105,7 +108,8 @@ class UrbanGpsModel:
     jump_interval_s, outlier_rate, outlier_sigma_m, dropout_open_hz, dropout_canyon_hz,
     dropout_mean_s, missing_rate, tunnel_dropout, tunnel_reacquire_s, rate_hz,
     speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, odometer,
-    odometer_scale_sigma, odometer_resolution_m, report_without_fix, fix_quality_field
+    odometer_scale_sigma, odometer_resolution_m, report_without_fix, fix_quality_field,
+    latency_s
         As above (metres, seconds, Hz, probabilities, m/s, degrees).
     canyon_open, canyon_double_track : float
         Canyon factor of track without and with a parallel opposite-direction track.
@@ -139,6 +143,7 @@ class UrbanGpsModel:
     odometer_resolution_m: float = 0.1
     report_without_fix: bool = True
     fix_quality_field: bool = True
+    latency_s: float = 0.0
     canyon_open: float = 0.2
     canyon_double_track: float = 0.8
     canyon_spread: float = 0.4
@@ -162,6 +167,7 @@ class UrbanGpsModel:
                 "odometer_scale_sigma",
                 "odometer_resolution_m",
                 "canyon_spread",
+                "latency_s",
             ),
             probabilities=("outlier_rate", "missing_rate", "canyon_open", "canyon_double_track"),
             positive=("bias_tau_s", "jump_interval_s", "dropout_mean_s"),
@@ -306,6 +312,10 @@ def observe_urban(
     raw_course = (
         np.degrees(np.arctan2(vx, vy)) + ep.convergence_deg + gps.course_sigma_deg * z[:, 10]
     ) % 360.0
+    if gps.latency_s > 0.0 and n:
+        # the receiver's output is latency_s old when the report is stamped
+        late = np.maximum(np.arange(n) - round(gps.latency_s * gps.rate_hz), 0)
+        mx, my, speed, raw_course = mx[late], my[late], speed[late], raw_course[late]
     # outages: a two-state chain whose entry hazard grows with the canyon
     p_enter = 1.0 - np.exp(
         -dt * (gps.dropout_open_hz + canyon * (gps.dropout_canyon_hz - gps.dropout_open_hz))
