@@ -101,22 +101,38 @@ def learn_latency(
     if new.any():
         r = rows[new]
         f.lt[r], f.lptt[r] = mean, sd * sd
-    start = restart | new | np.isnan(f.lc[rows])
-    r = rows[start]
-    f.lc[r], f.lpcc[r], f.lpct[r] = d[start] + speed_mps[start] * f.lt[r], r2[start], 0.0
-    go = ~start
-    if go.any():
-        r, v, dt = rows[go], speed_mps[go], np.maximum(dt_s[go], 0.0)
-        c, tau = f.lc[r], f.lt[r]
-        pcc = f.lpcc[r] + offset_rate_m2_s * dt
-        pct = f.lpct[r]
-        ptt = f.lptt[r] + _LATENCY_DRIFT_S2_S * dt
-        # measurement d = c - v * tau: H = (1, -v)
-        y = d[go] - (c - v * tau)
-        ua, ub = pcc - v * pct, pct - v * ptt  # P H'
-        s = ua - v * ub + r2[go]
-        fit = np.abs(y) <= _GATE * np.sqrt(s)
-        ka, kb = np.where(fit, ua / s, 0.0), np.where(fit, ub / s, 0.0)
-        f.lc[r], f.lt[r] = c + ka * y, tau + kb * y
-        f.lpcc[r], f.lpct[r], f.lptt[r] = pcc - ka * ua, pct - ka * ub, ptt - kb * ub
+    start = restart | np.isnan(f.lc[rows])
+    if not start.any():
+        _update(f, rows, speed_mps, d, r2, dt_s, offset_rate_m2_s)
+    else:
+        r = rows[start]
+        f.lc[r], f.lpcc[r], f.lpct[r] = d[start] + speed_mps[start] * f.lt[r], r2[start], 0.0
+        go = ~start
+        if go.any():
+            _update(f, rows[go], speed_mps[go], d[go], r2[go], dt_s[go], offset_rate_m2_s)
     return np.clip(f.lt[rows], 0.0, MAX_LATENCY_S)
+
+
+def _update(
+    f: FleetState,
+    rows: IntArray,
+    v: FloatArray,
+    d: FloatArray,
+    r2: FloatArray,
+    dt: FloatArray,
+    offset_rate_m2_s: float,
+) -> None:
+    """One predict-and-update of the filters of ``rows``: the offset wanders for ``dt``
+    (s), then ``d = c - v * latency`` is measured with variance ``r2`` (m²)."""
+    dt = np.maximum(dt, 0.0)
+    c, tau = f.lc[rows], f.lt[rows]
+    pcc = f.lpcc[rows] + offset_rate_m2_s * dt
+    pct = f.lpct[rows]
+    ptt = f.lptt[rows] + _LATENCY_DRIFT_S2_S * dt
+    y = d - (c - v * tau)
+    ua, ub = pcc - v * pct, pct - v * ptt  # P H' with H = (1, -v)
+    s = ua - v * ub + r2
+    fit = y * y <= (_GATE * _GATE) * s
+    ka, kb = np.where(fit, ua / s, 0.0), np.where(fit, ub / s, 0.0)
+    f.lc[rows], f.lt[rows] = c + ka * y, tau + kb * y
+    f.lpcc[rows], f.lpct[rows], f.lptt[rows] = pcc - ka * ua, pct - ka * ub, ptt - kb * ub
