@@ -78,7 +78,9 @@ class FixErrorState:
     def start(cls, n: int, bias_sigma_m: npt.ArrayLike) -> FixErrorState:
         """A fresh start: the bias at its stationary prior (``bias_sigma_m`` per axis),
         the lag unknown."""
-        var = np.broadcast_to(np.asarray(bias_sigma_m, dtype=float) ** 2, (n,)).copy()
+        var = np.asarray(bias_sigma_m, dtype=float) ** 2  # a new array
+        if var.shape != (n,):
+            var = np.broadcast_to(var, (n,)).copy()
         zero = np.zeros(n)
         return cls(
             zero, zero.copy(), zero.copy(), np.full(n, UNKNOWN_LAG_VAR_M2),

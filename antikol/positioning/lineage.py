@@ -84,7 +84,9 @@ def plan_slots(
     group = np.searchsorted(bounds, np.arange(n_ranked), side="right") - 1
     place = np.arange(n_ranked) - bounds[group]  # rank within the report's candidates
     member = (place < k) & ((place == 0) | (p[rank_order] >= min_probability))
-    member &= np.isin(group, go)
+    committed = np.zeros(len(bounds), dtype=bool)
+    committed[go] = True
+    member &= committed[group]
     best = rank_order[bounds[go]]
     lineage_at = np.where(
         member & (place > 0) & (parent[rank_order] == 0), np.arange(n_ranked), n_ranked

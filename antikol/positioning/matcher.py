@@ -676,14 +676,11 @@ class Positioner:
         same spot (the same state, or within a few metres across a plain node)."""
         hs, ho = self._f.hs[rows], self._f.ho[rows]
         prob = np.where(hs >= 0, np.exp(self._f.hp[rows]), 0.0)
-        s0, o0 = hs[:, :1], ho[:, :1]
+        first = np.zeros(hs.shape[1], dtype=np.intp)  # slot 0 in every column
+        s0, o0 = hs[:, first], ho[:, first]
         others = np.where(hs >= 0, hs, 0)
-        fwd = self.reach.ahead(
-            np.broadcast_to(s0, hs.shape), np.broadcast_to(o0, hs.shape), others, ho
-        )
-        back = self.reach.ahead(
-            others, ho, np.broadcast_to(s0, hs.shape), np.broadcast_to(o0, hs.shape)
-        )
+        fwd = self.reach.ahead(s0, o0, others, ho)
+        back = self.reach.ahead(others, ho, s0, o0)
         same = (hs == s0) | (np.minimum(fwd, back) <= _SAME_PLACE_M)
         same[:, 0] = True
         return np.minimum(np.sum(np.where(same & (hs >= 0), prob, 0.0), axis=1), 1.0)
