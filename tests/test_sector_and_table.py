@@ -148,7 +148,9 @@ def test_a_dropped_vehicle_is_never_closer_than_a_kept_one(capacity, positions):
     assert len(kept) == min(capacity, len(positions))
     for d in dropped:
         for k in kept:
-            assert dist[d] >= dist[k] - 0.5  # planar vs projected distance tolerance
+            # the table ranks by the paper's planar formula, the test by the projection:
+            # they differ by a scale that depends on the direction (0.56 m at 700 m found)
+            assert dist[d] >= dist[k] - (0.5 + 0.002 * dist[k])
 
 
 def test_table_rejects_bad_configuration():
