@@ -20,6 +20,7 @@ import trackmap
 from antikol import VehicleReport
 from antikol.positioning import Positioner
 from antikol.positioning.feedfaults import ODOMETER_BACK_M, odometer_resets, stale_fixes
+from antikol.positioning.fleet import FleetState
 from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture
 from tests._paths import reports_along
 
@@ -27,15 +28,17 @@ _RUN_M = 2.0
 
 
 def _one(now: VehicleReport, before: VehicleReport | None, *, t_fix: float, odo_fix: float):
+    # the vehicle's state as the positioner keeps it: its last fix and speed before
+    fleet = FleetState(k=1)
+    fleet.grow(1)
+    rows = np.array([0])
+    fleet.t_fix[0], fleet.odo_fix[0] = t_fix, odo_fix
+    fleet.v[0] = 0.0 if before is None else before.speed_mps
+    speed = np.array([now.speed_mps])
+    odometer = np.array([math.nan if now.odometer_m is None else now.odometer_m])
+    ran = fleet.run_since_fix(rows, np.array([now.t]), speed, odometer)
     return bool(
-        stale_fixes(
-            [now],
-            [before],
-            np.array([t_fix]),
-            np.array([odo_fix]),
-            np.array([0.0 if before is None else before.speed_mps]),
-            run_m=_RUN_M,
-        )[0]
+        stale_fixes(np.array([now.lat]), np.array([now.lon]), [before], speed, ran, run_m=_RUN_M)[0]
     )
 
 

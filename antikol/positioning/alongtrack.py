@@ -64,12 +64,7 @@ def run_track_filters(
     t, speed, odo, along = measured
     lineage_progress = progress
     # a late fix shows where the vehicle was: it has run on since, at its speed
-    since_fix = np.maximum(t - fleet.t_fix[done], 0.0)
-    ran = np.where(
-        np.isfinite(odo) & np.isfinite(fleet.odo_fix[done]),
-        odo - fleet.odo_fix[done],
-        0.5 * (speed + fleet.v[done]) * since_fix,
-    )
+    ran, since_fix, _ = fleet.run_since_fix(done, t, speed, odo)
     fleet.run[done] += np.where(np.isfinite(ran), np.maximum(ran, 0.0), 0.0)
     latency = learn_latency(
         fleet,

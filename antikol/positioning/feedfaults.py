@@ -19,9 +19,10 @@ and left a running tram ~9 m behind, confident, for half a minute.
 
 >>> import numpy as np
 >>> from antikol import VehicleReport
+>>> from antikol.positioning.fleet import RunSinceFix
 >>> last = VehicleReport("T1", 10.0, 50.06, 19.94, 8.0, 90.0, odometer_m=1000.0)
->>> now = VehicleReport("T1", 11.0, 50.06, 19.94, 8.0, 90.0, odometer_m=1008.0)
->>> stale_fixes([now], [last], np.array([10.0]), np.array([1000.0]), np.array([8.0]),
+>>> ran = RunSinceFix(np.array([8.0]), np.array([1.0]), np.array([True]))  # 8 m in 1 s
+>>> stale_fixes(np.array([50.06]), np.array([19.94]), [last], np.array([8.0]), ran,
 ...             run_m=2.0).tolist()
 [True]
 """
@@ -33,6 +34,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from antikol.positioning.fleet import RunSinceFix
 from antikol.report import VehicleReport
 
 __all__ = ["odometer_resets", "stale_fixes"]
@@ -48,11 +50,11 @@ ODOMETER_BACK_M = 1.0
 
 
 def stale_fixes(
-    reports: Sequence[VehicleReport],
+    lat: FloatArray,
+    lon: FloatArray,
     previous: Sequence[VehicleReport | None],
-    t_fix_s: FloatArray,
-    odometer_fix_m: FloatArray,
-    speed_before_mps: FloatArray,
+    speed_mps: FloatArray,
+    since_fix: RunSinceFix,
     *,
     run_m: float,
 ) -> BoolArray:
@@ -60,47 +62,34 @@ def stale_fixes(
 
     Parameters
     ----------
-    reports : sequence of VehicleReport
-        The new reports.
+    lat, lon : ndarray of float
+        The new reports' position, degrees.
     previous : sequence of VehicleReport or None
         Each vehicle's previous report (None: none yet).
-    t_fix_s, odometer_fix_m : ndarray of float
-        Per report: the time (s) and odometer (m, NaN: none) of the vehicle's last position
-        fix (NaN time: none yet).
-    speed_before_mps : ndarray of float
-        Per report: the speed the vehicle reported before, m/s.
+    speed_mps : ndarray of float
+        The new reports' speed, m/s: by speeds alone, a vehicle slower than 1 m/s stands
+        (a receiver may hold its position then).
+    since_fix : RunSinceFix
+        How far each vehicle ran since its last fix
+        (:meth:`~antikol.positioning.fleet.FleetState.run_since_fix`).
     run_m : float, keyword-only
-        The distance the vehicle must have run since its last fix, by its odometer or
-        else by its reported speeds, for a repeated position to be stale, m.
+        The distance the vehicle must have run since its last fix for a repeated position
+        to be stale, m.
 
     Returns
     -------
     ndarray of bool
     """
-    n = len(reports)
     same = np.fromiter(
-        (
-            p is not None and r.lat == p.lat and r.lon == p.lon
-            for r, p in zip(reports, previous, strict=True)
-        ),
+        (p is not None and lat[i] == p.lat and lon[i] == p.lon for i, p in enumerate(previous)),
         bool,
-        n,
+        len(previous),
     )
     if not same.any():
         return same
-    t = np.fromiter((r.t for r in reports), float, n)
-    speed = np.fromiter((r.speed_mps for r in reports), float, n)
-    odometer = np.fromiter(
-        (np.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
-    )
-    has_odometer = np.isfinite(odometer) & np.isfinite(odometer_fix_m)
-    with np.errstate(invalid="ignore"):
-        by_odometer = odometer - odometer_fix_m
-        by_speed = np.where(
-            speed >= _MOVING_MPS, 0.5 * (speed + speed_before_mps) * (t - t_fix_s), 0.0
-        )
-    ran = np.where(has_odometer, by_odometer, by_speed)
-    return same & np.isfinite(t_fix_s) & (np.nan_to_num(ran) >= run_m)
+    moving = since_fix.by_odometer | (speed_mps >= _MOVING_MPS)
+    ran = np.nan_to_num(since_fix.distance_m)
+    return same & moving & np.isfinite(since_fix.seconds) & (ran >= run_m)
 
 
 def odometer_resets(odometer_m: FloatArray, before_m: FloatArray) -> BoolArray:

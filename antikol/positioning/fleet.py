@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -18,7 +18,14 @@ from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.kalman import TrackFilterState
 from antikol.report import VehicleReport
 
-__all__ = ["SLOT_FIELDS", "VEHICLE_FIELDS", "FleetState", "json_float", "report_dict"]
+__all__ = [
+    "SLOT_FIELDS",
+    "VEHICLE_FIELDS",
+    "FleetState",
+    "RunSinceFix",
+    "json_float",
+    "report_dict",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -30,6 +37,16 @@ VEHICLE_FIELDS = (
     "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
     "run", "lc", "lt", "lpcc", "lpct", "lptt",
 )  # fmt: skip
+
+
+class RunSinceFix(NamedTuple):
+    """How far (m, NaN: not known) and how long (s, NaN: no fix yet) each vehicle has run
+    since its last position fix, and whether the distance is its odometer's (else its
+    mean reported speed times the time)."""
+
+    distance_m: FloatArray
+    seconds: FloatArray
+    by_odometer: npt.NDArray[np.bool_]
 
 
 @dataclass
@@ -141,6 +158,19 @@ class FleetState:
         self.kf.t[row] = np.nan
         self.last[row] = None
         self.lost[row] = None
+
+    def run_since_fix(
+        self, rows: IntArray, t_s: FloatArray, speed_mps: FloatArray, odometer_m: FloatArray
+    ) -> RunSinceFix:
+        """How far the vehicles of ``rows`` ran since their last fix, by reports at ``t_s``
+        (s) with speeds (m/s) and odometer readings (m, NaN: none)."""
+        seconds = np.maximum(t_s - self.t_fix[rows], 0.0)
+        odo_fix = self.odo_fix[rows]
+        by_odometer = np.isfinite(odometer_m) & np.isfinite(odo_fix)
+        distance = np.where(
+            by_odometer, odometer_m - odo_fix, 0.5 * (speed_mps + self.v[rows]) * seconds
+        )
+        return RunSinceFix(distance, seconds, by_odometer)
 
     def row_state(self, row: int) -> dict[str, Any]:
         """One vehicle's row as a JSON-ready dict (see ``Positioner.state``)."""

@@ -384,16 +384,16 @@ class Positioner:
         f = self._f
         reset = odometer_resets(odo, f.odo[rows])
         f.odo[rows[reset]] = f.odo_fix[rows[reset]] = np.nan
+        lon = np.fromiter((r.lon for r in reports), float, n)
+        lat = np.fromiter((r.lat for r in reports), float, n)
         stale = ~no_fix & stale_fixes(
-            reports, [f.last[r] for r in rows.tolist()], f.t_fix[rows], f.odo_fix[rows],
-            f.v[rows], run_m=c.stale_fix_run_m,
+            lat, lon, [f.last[r] for r in rows.tolist()], speed,
+            f.run_since_fix(rows, t, speed, odo), run_m=c.stale_fix_run_m,
         )  # fmt: skip
         for name, happened in (("odometer_reset", reset), ("stale_fix", stale)):
             if happened.any():
                 self.stats[name] += int(np.count_nonzero(happened))
         no_fix |= stale
-        lon = np.fromiter((r.lon for r in reports), float, n)
-        lat = np.fromiter((r.lat for r in reports), float, n)
         xs, ys = self.net.to_local(lon, lat)
         xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
 
