@@ -11,6 +11,7 @@ import pytest
 
 import trackmap
 from antikol import VehicleReport
+from antikol.errors import InvalidArgumentError
 from antikol.positioning.matcher import DiscreteFix, FixPoint, Positioner, PositioningConfig
 from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture, switch_fixture
 from tests._paths import reports_along
@@ -284,3 +285,10 @@ def test_asking_a_position_changes_no_later_position(tmp_path, seed):
         asked.position("V", r.t + 15.0)  # somebody asks 15 s ahead
         assert asked.position("V", r.t) == first  # the same question again
         assert quiet.update(r) == first
+
+
+@pytest.mark.parametrize("name", ["gps_sigma_m", "bias_tau_s", "standstill_evidence_s"])
+@pytest.mark.parametrize("value", [0.0, -1.0])
+def test_a_scale_of_the_config_must_be_positive(name, value):
+    with pytest.raises(InvalidArgumentError, match=name):
+        PositioningConfig(**{name: value})

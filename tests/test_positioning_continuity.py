@@ -32,6 +32,7 @@ from tests._paths import reports_along
 LINE = STRAIGHT_LINE
 _STRAY_FIX = "outlier_beside_a_merging_track.json"
 _BIAS_JUMP = "bias_jump_beside_the_other_direction.json"
+_STANDING = "standing_beside_a_corner_of_another_track.json"
 
 
 @pytest.fixture(scope="module")
@@ -412,6 +413,49 @@ def test_a_bias_jump_onto_the_other_direction_track_is_no_wrong_way_running():
     assert {(p.edge_id, p.direction) for p in settled} == {(out[0].edge_id, out[0].direction)}
     assert not any(p.wrong_way for p in out)
     assert all(p.status == "confident" for p in settled)
+
+
+def test_a_standing_tram_keeps_its_track_beside_a_corner_of_another():
+    # street GPS (the simulator's urban model): a tram stands 20 s (t = 412-431 s) 17 m
+    # from a bend of another track. A stray fix started a hypothesis there, on the bend's
+    # vertex, onto which every later fix projected: its candidate never moved. The tram's
+    # own candidates moved with the fixes' scatter along its track and paid the move cost
+    # of a vehicle that the odometer says stood, about 2 nats a fix, so the other track
+    # won ("confident" at 0.97) while the tram stood, and the position jumped back when
+    # it left
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _STANDING, "T04")
+    settled = [p for p in out if p.t >= 400.0]
+    assert {p.edge_id for p in settled} == {42}
+    assert all(p.status == "confident" for p in settled)
+
+
+@pytest.fixture(scope="module")
+def two_tracks_one_way(tmp_path_factory):
+    # two parallel tracks 3.6 m apart, both run northwards (a siding beside a main track)
+    b = OsmBuilder()
+    b.line([(3.6, -100.0), (3.6, 1100.0)])
+    b.line([(0.0, -100.0), (0.0, 1100.0)])
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("two") / "two.osm"))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_long_stop_adds_no_evidence_about_the_track(two_tracks_one_way, seed):
+    # a tram stands five minutes with its fixes 1.2 m from one track and 2.4 m from the
+    # other: the bias that dominates a standing vehicle's fixes does not average out, so
+    # standing on does not make the nearer track any surer than the first half minute did
+    rng = np.random.default_rng(seed)
+    pos = Positioner(two_tracks_one_way)
+    share = []
+    for k in range(300):
+        lon, lat = FRAME.to_lonlat(2.4 + rng.normal(0.0, 1.0), 500.0 + rng.normal(0.0, 1.0))
+        p = pos.update(
+            VehicleReport("V", float(k), float(lat), float(lon), 0.0, 0.0, odometer_m=100.0)
+        )
+        x, _ = FRAME.to_local(p.lon, p.lat)
+        share.append(p.probability if x > 1.8 else 1.0 - p.probability)
+    assert p.status == "ambiguous"
+    assert share[-1] == pytest.approx(share[30], abs=0.01)
 
 
 def _turn_without_connection(net, seed: int) -> tuple[list, Positioner]:

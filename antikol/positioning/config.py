@@ -140,6 +140,12 @@ class PositioningConfig:
         emission log-likelihood is scaled by ``standstill_evidence_weight``: the white part
         of the GPS error is itself correlated at a standstill, so repeated fixes are not
         independent evidence.
+    standstill_evidence_s : float
+        The weight of a standing vehicle's fixes decays further with the time it has stood,
+        ``standstill_evidence_weight × exp(-stood / standstill_evidence_s)``: a long stop
+        adds at most about ``standstill_evidence_weight × standstill_evidence_s`` seconds'
+        worth of fixes of evidence about its track, since the bias that dominates its fixes
+        drifts and jumps while it stands and does not average out (s, > 0).
     fix_latency_s, fix_latency_sigma_s : float
         How old a fix is when its report is stamped, s (an AVL unit that stamps its reports
         when it sends them): the along-track filter takes the fix as the place the vehicle
@@ -200,6 +206,7 @@ class PositioningConfig:
     relocalise_after: int = 5
     standstill_distance_m: float = 1.0
     standstill_evidence_weight: float = 0.2
+    standstill_evidence_s: float = 10.0
     fix_latency_s: float = 0.0
     fix_latency_sigma_s: float = 1.0
     stale_fix_run_m: float = 2.0
@@ -225,6 +232,7 @@ class PositioningConfig:
             "dgps_sigma_m",
             "rtk_float_sigma_m",
             "rtk_sigma_m",
+            "standstill_evidence_s",
         ):
             if getattr(self, name) <= 0.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")

@@ -67,6 +67,9 @@ def dead_reckon(
     held = fleet.hs[row] >= 0
     fleet.paa[row, held] += frac * frac * ((since_fix + travelled) ** 2 - since_fix**2)
     fleet.z[row] += travelled
+    waited = report.t - fleet.t[row]
+    standing = travelled < config.standstill_distance_m and math.isfinite(waited)
+    fleet.stood[row] = fleet.stood[row] + waited if standing else 0.0
     fleet.odo[row] = odometer
     fleet.t[row] = report.t
     fleet.v[row] = report.speed_mps  # the wheel speed: the next physics check needs it

@@ -35,7 +35,7 @@ SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", *FIX_ERROR_FIELDS)
 #: Per-vehicle float arrays of the fleet state.
 VEHICLE_FIELDS = (
     "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
-    "run", "lc", "lt", "lpcc", "lpct", "lptt",
+    "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood",
 )  # fmt: skip
 
 
@@ -83,7 +83,8 @@ class FleetState:
     # (m), odometer and time at the last GPS position, lineage progress at the last fix (m),
     # probability of the reported place, rejections, confident matches and along-track
     # innovations beyond the gate in a row; the distance run (m) and the latency filter
-    # (:mod:`antikol.positioning.latency`: offset, m, latency, s, and their covariance)
+    # (:mod:`antikol.positioning.latency`: offset, m, latency, s, and their covariance);
+    # how long it has stood at its last fix, s
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -98,6 +99,7 @@ class FleetState:
     lpcc: FloatArray = field(init=False)
     lpct: FloatArray = field(init=False)
     lptt: FloatArray = field(init=False)
+    stood: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -151,7 +153,7 @@ class FleetState:
         self.hv[row] = -1.0
         for name in ("t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt"):
             getattr(self, name)[row] = np.nan
-        self.v[row] = self.z[row] = self.place[row] = self.run[row] = 0.0
+        self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
         self.rejected[row] = self.confident_run[row] = self.gated[row] = 0
         self.unmatched[row] = False

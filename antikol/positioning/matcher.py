@@ -542,7 +542,9 @@ class Positioner:
                 (rank_order, bounds, p, parent, fresh, scored.standing),
                 (cs, co, prog, ww, came, error_cols),
             )
-        self._set_fixes(np.flatnonzero(~skip), reports, rows, t, speed, odo, xs, ys)
+        kept = np.flatnonzero(~skip)
+        self._set_fixes(kept, reports, rows, t, speed, odo, xs, ys)
+        self._f.stood[rows[kept]] = scored.stood_s[kept]
         if not len(go):
             return
         done = rows[go]

@@ -56,21 +56,22 @@ class Scored:
     reaches a candidate by a plausible move, there is no candidate, or the best candidate
     scores below ``-outlier_fix_nats``: the fix is an outlier and rejected), ``fresh``
     (the vehicle starts afresh), ``standing`` (it ran less than ``standstill_distance_m``
-    since its last fix), ``rejected`` (its rejections in a row after this step) and
-    ``along_sigma`` (the fix's error along the track, m). Per candidate state: the fix it
-    belongs to (``cv``), the state id (``cs``), the offset (``co``, m), the log-probability
-    (``log_p``), the progress along its lineage (``progress``, m), the parent slot
-    (``parent``, -1 for a new lineage), the time running wrong way (``wrong_way_s``), the
-    state it entered its own from (``came_from``, a float; -1: not known) and the fix error
-    filter's state (``fix_error``: the arrays named by
-    :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what
-    happened.
+    since its last fix), ``stood_s`` (how long it has stood at this fix, s), ``rejected``
+    (its rejections in a row after this step) and ``along_sigma`` (the fix's error along
+    the track, m). Per candidate state: the fix it belongs to (``cv``), the state id
+    (``cs``), the offset (``co``, m), the log-probability (``log_p``), the progress along
+    its lineage (``progress``, m), the parent slot (``parent``, -1 for a new lineage), the
+    time running wrong way (``wrong_way_s``), the state it entered its own from
+    (``came_from``, a float; -1: not known) and the fix error filter's state
+    (``fix_error``: the arrays named by
+    :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what happened.
     """
 
     unmatched: BoolArray
     stuck: BoolArray
     fresh: BoolArray
     standing: BoolArray
+    stood_s: FloatArray
     rejected: IntArray
     along_sigma: FloatArray
     cv: IntArray
@@ -180,7 +181,12 @@ def score_fixes(
     tx, ty = direction * np.sin(h), direction * np.cos(h)  # unit tangent, running way
     static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
     standing = travelled < c.standstill_distance_m
-    weight = np.where(standing, c.standstill_evidence_weight, 1.0)
+    # a long stop is not a long run of evidence: the bias that dominates a standing
+    # vehicle's fixes drifts and jumps where it stands, the fixes follow it
+    stood = fleet.stood[rows]
+    weight = np.where(
+        standing, c.standstill_evidence_weight * np.exp(-stood / c.standstill_evidence_s), 1.0
+    )
     noise_var = (sigma * sigma)[cv]
     floor = c.outlier_weight / (2.0 * radius[cv])
 
@@ -213,7 +219,9 @@ def score_fixes(
     rev_ok = reversal & (exp_m < 1.0)
     rev_dist = np.abs(co[pc] - po)
     move_cost = np.where(rev_ok, rev_dist / beta, move_cost)
-    trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost
+    # at a standstill the candidates move with the fix's own error: their moves are
+    # evidence of the fix (weighted as its emission), not of the vehicle
+    trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost * weight[cv[pc]]
     dist = np.where(rev_ok, rev_dist, dist)
     enters_wrong = wrong[pc] & reach.allowed[pss]
     trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
@@ -356,6 +364,7 @@ def score_fixes(
         stuck & ~fresh,
         fresh,
         standing,
+        np.where(standing, stood + dt, 0.0),
         rejected,
         np.hypot(sigma, bias_sigma),
         cv,
