@@ -258,8 +258,12 @@ def hold_at_switch(
                 mine += p
             elif taken is not None or (h.edge_id, h.direction) == trunk:
                 others += p  # on another branch, or still before the switch
+        if mine + others == 0.0:
+            # every hypothesis lies beyond a junction that hides the way back to this
+            # switch: none is before it or on another branch, nothing is left open
+            continue
         decided = RELEASED_SHARE if node in released and past > STEP_BACK_M else DECIDED_SHARE
-        if mine > 0.0 and mine / (mine + others) >= decided:
+        if mine / (mine + others) >= decided:
             continue
         t_edge, t_dir = trunk
         end = net.edges[t_edge].length_m if t_dir == 1 else 0.0

@@ -139,10 +139,12 @@ class PositioningConfig:
         While the vehicle moves less than ``standstill_distance_m`` between fixes, the
         emission log-likelihood is scaled by ``standstill_evidence_weight``: the white part
         of the GPS error is itself correlated at a standstill, so repeated fixes are not
-        independent evidence.
+        independent evidence. The move cost of its candidates is scaled the same way: at a
+        standstill they move with the fix's own scatter, not with the vehicle.
     standstill_evidence_s : float
-        The weight of a standing vehicle's fixes decays further with the time it has stood,
-        ``standstill_evidence_weight × exp(-stood / standstill_evidence_s)``: a long stop
+        The weight of a standing vehicle's fixes (not of its moves) decays further with the
+        time it has stood, ``standstill_evidence_weight × exp(-stood /
+        standstill_evidence_s)``: a long stop
         adds at most about ``standstill_evidence_weight × standstill_evidence_s`` seconds'
         worth of fixes of evidence about its track, since the bias that dominates its fixes
         drifts and jumps while it stands and does not average out (s, > 0).

@@ -182,6 +182,7 @@ def place_one(
     if last is None:  # pragma: no cover - only vehicles with a report are placed
         raise RuntimeError(f"positioning state of {vehicle_id!r} without a report")
     first = hyps[0]
+    entered = int(fleet.hv[row, 0])
     moved = advance(
         net,
         first.edge_id,
@@ -191,9 +192,14 @@ def place_one(
         last,
         wrong=first.wrong_way,
         edge_mass=edge_mass(hyps),
-        # the last fix a forgiven outlier: the lineage sits at the outlier's place and
-        # the position goes back the way the vehicle came (else it stops at a node)
-        came_from=basis if fleet.gated[row] else None,
+        # a position behind its lineage goes back the way the vehicle came (else it stops
+        # at a node): where it was placed before when the last fix was a forgiven outlier
+        # (the lineage sits at the outlier's place), else the track the lineage entered
+        # its edge from (a fix off along the track, under the gate, can carry the lineage
+        # over a node the filter has not reached)
+        came_from=basis
+        if fleet.gated[row]
+        else ((entered >> 1, 1 - 2 * (entered & 1)) if entered >= 0 else None),
     )
     edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
     place_p = float(fleet.place[row]) * moved.branch_share

@@ -184,9 +184,8 @@ def score_fixes(
     # a long stop is not a long run of evidence: the bias that dominates a standing
     # vehicle's fixes drifts and jumps where it stands, the fixes follow it
     stood = fleet.stood[rows]
-    weight = np.where(
-        standing, c.standstill_evidence_weight * np.exp(-stood / c.standstill_evidence_s), 1.0
-    )
+    move_weight = np.where(standing, c.standstill_evidence_weight, 1.0)
+    weight = move_weight * np.where(standing, np.exp(-stood / c.standstill_evidence_s), 1.0)
     noise_var = (sigma * sigma)[cv]
     floor = c.outlier_weight / (2.0 * radius[cv])
 
@@ -221,7 +220,7 @@ def score_fixes(
     move_cost = np.where(rev_ok, rev_dist / beta, move_cost)
     # at a standstill the candidates move with the fix's own error: their moves are
     # evidence of the fix (weighted as its emission), not of the vehicle
-    trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost * weight[cv[pc]]
+    trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost * move_weight[cv[pc]]
     dist = np.where(rev_ok, rev_dist, dist)
     enters_wrong = wrong[pc] & reach.allowed[pss]
     trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
