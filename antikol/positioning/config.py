@@ -143,11 +143,10 @@ class PositioningConfig:
         standstill they move with the fix's own scatter, not with the vehicle.
     standstill_evidence_s : float
         The weight of a standing vehicle's fixes (not of its moves) decays further with the
-        time it has stood, ``standstill_evidence_weight × exp(-stood /
-        standstill_evidence_s)``: a long stop
-        adds at most about ``standstill_evidence_weight × standstill_evidence_s`` seconds'
-        worth of fixes of evidence about its track, since the bias that dominates its fixes
-        drifts and jumps while it stands and does not average out (s, > 0).
+        time it has stood: ``standstill_evidence_weight × exp(-stood / standstill_evidence_s)``.
+        A long stop adds at most about ``standstill_evidence_weight × standstill_evidence_s``
+        seconds' worth of fixes of evidence about its track, since the bias that dominates
+        its fixes drifts and jumps while it stands and does not average out (s, > 0).
     fix_latency_s, fix_latency_sigma_s : float
         How old a fix is when its report is stamped, s (an AVL unit that stamps its reports
         when it sends them): the along-track filter takes the fix as the place the vehicle
