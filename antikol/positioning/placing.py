@@ -24,6 +24,7 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, edge_mass
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.outputs import Placement
+from antikol.positioning.reach import state_direction, state_edge
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
@@ -199,7 +200,7 @@ def place_one(
         # over a node the filter has not reached)
         came_from=basis
         if fleet.gated[row]
-        else ((entered >> 1, 1 - 2 * (entered & 1)) if entered >= 0 else None),
+        else ((int(state_edge(entered)), int(state_direction(entered))) if entered >= 0 else None),
     )
     edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
     place_p = float(fleet.place[row]) * moved.branch_share
