@@ -35,6 +35,8 @@ _BIAS_JUMP = "bias_jump_beside_the_other_direction.json"
 _STANDING = "standing_beside_a_corner_of_another_track.json"
 _ALONG_OVER_SWITCH = "along_error_over_a_switch.json"
 _OUTAGE_PAST_SWITCH = "outage_over_short_edges_past_a_switch.json"
+_START_BESIDE = "a_start_beside_the_other_direction_before_a_node.json"
+_OUTLIER_STANDING = "an_outlier_while_standing_at_a_node.json"
 
 
 @pytest.fixture(scope="module")
@@ -472,6 +474,30 @@ def test_dead_reckoned_over_short_edges_past_a_switch_the_position_stays_on_its_
     assert max(_steps_back_m(net, out[5:])) < 3.0
 
 
+def test_a_lineage_split_at_a_node_is_not_left_for_the_other_direction_track():
+    # street GPS: a tram starts on double track, its fixes biased between its track and
+    # the other direction's; for 8 s neither wins. At a node the tram's lineage split
+    # over the three edges beyond it, none of them holding the quarter that keeps the
+    # reported position on its lineage, although together they held a third: the position
+    # went over to the other direction's track (0.65) and back a second later
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _START_BESIDE, "T01")
+    assert max(_steps_back_m(net, out)) < 3.0
+    assert all(p.edge_id != 232 for p in out[8:])  # the other direction's track
+
+
+def test_one_outlier_while_standing_at_a_node_does_not_move_the_tram():
+    # street GPS: a tram stands at a node (from t = 503 s); its hypotheses lie on both
+    # sides of it, and the reported lineage changes from one side to the other as the
+    # fixes scatter. One fix 27 m off came from the hypothesis on the other side: the
+    # change of lineage restarted the along-track filter at that fix's place, although
+    # both sides are one place, and the tram was reported 18 m back for a second
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _OUTLIER_STANDING, "T01")
+    places = [net.point_at(p.edge_id, p.offset_m) for p in out if p.t >= 503.0]
+    assert max(math.dist(places[0], q) for q in places) < 5.0
+
+
 @pytest.fixture(scope="module")
 def two_tracks_one_way(tmp_path_factory):
     # two parallel tracks 3.6 m apart, both run northwards (a siding beside a main track)
@@ -597,3 +623,34 @@ def test_a_step_back_is_never_shorter_than_the_track_allows(
     homeward = float(table.signed_distance(frm, o1, to, o2, came_from=to, expected_m=-1e9)[0])
     if np.isfinite(anywhere):
         assert homeward == pytest.approx(-(plain if np.isfinite(plain) else anywhere))
+
+
+@given(
+    frm_edge=st.integers(min_value=0, max_value=10**6),
+    to_edge=st.integers(min_value=0, max_value=10**6),
+    frm_at=st.floats(min_value=0.0, max_value=1.0),
+    to_at=st.floats(min_value=0.0, max_value=1.0),
+    direction=st.sampled_from([1, -1]),
+    near=st.booleans(),
+)
+def test_the_gap_between_two_places_is_the_nearer_way_signed(
+    frm_edge, to_edge, frm_at, to_at, direction, near
+):
+    # between(a, b) is the shorter of the run ahead from a to b and the run back from b
+    # to a, signed; swapped it is the same gap the other way, and on one edge it is the
+    # difference of the offsets along the running direction
+    from antikol.positioning.reach import ReachTable, state_id
+
+    net = trackmap.load_default()
+    table = ReachTable.for_map(net, reach_m=400.0)
+    e1 = frm_edge % len(net.edges)
+    e2 = e1 if near else to_edge % len(net.edges)
+    a, b = np.array([state_id(e1, direction)]), np.array([state_id(e2, direction)])
+    oa = np.array([frm_at * net.edge_length(e1)])
+    ob = np.array([to_at * net.edge_length(e2)])
+    gap = float(table.between(a, oa, b, ob)[0])
+    fwd, back = float(table.ahead(a, oa, b, ob)[0]), float(table.ahead(b, ob, a, oa)[0])
+    assert abs(gap) == pytest.approx(min(fwd, back))
+    assert float(table.between(b, ob, a, oa)[0]) == pytest.approx(-gap if np.isfinite(gap) else gap)
+    if near:
+        assert gap == pytest.approx(direction * (ob[0] - oa[0]), abs=1e-6)

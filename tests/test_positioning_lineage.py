@@ -50,3 +50,27 @@ def test_a_standing_vehicle_keeps_its_lineage_however_little_is_left():
     # moving, a lineage below the switch probability's complement is given up
     assert _plan(0.6, standing=False, p_lineage=0.1).chosen[0] == 0
     assert _plan(0.6, standing=True, p_lineage=0.1).chosen[0] == 1
+
+
+def test_a_lineage_split_over_branches_counts_as_all_its_branches():
+    # the best (0.65) descends from another slot; the reported lineage has gone past a
+    # switch and split over two branches, each below the 0.25 that keeps it alone
+    def plan(p_lineage: list[float]):
+        p = np.array([0.65, *p_lineage])
+        return plan_slots(
+            np.arange(len(p)),
+            np.array([0, len(p)]),
+            p / p.sum(),
+            np.array([1] + [0] * len(p_lineage)),
+            np.array([0]),
+            fresh=np.array([False]),
+            standing=np.array([False]),
+            k=4,
+            min_probability=1e-4,
+            switch_probability=0.75,
+            standing_switch_probability=0.95,
+        )
+
+    assert plan([0.2, 0.15]).chosen[0] == 1  # together above 0.25: the lineage is kept
+    assert plan([0.2, 0.15]).slot[0] == 1
+    assert plan([0.1, 0.1]).chosen[0] == 0  # together still below: the best is followed

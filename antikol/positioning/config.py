@@ -94,8 +94,9 @@ class PositioningConfig:
     switch_probability : float
         The reported position stays on the lineage of the previous one (a position that a
         move along the track connects to it) unless another hypothesis reaches this
-        probability or the lineage falls below its complement: a belief flip between
-        unconnected tracks must be decisive.
+        probability or the lineage (all its descendants together: past a switch it splits
+        over the branches) falls below its complement: a belief flip between unconnected
+        tracks must be decisive.
     standing_switch_probability : float
         The same while the vehicle stands (it ran less than ``standstill_distance_m``
         since its last fix), when the lineage is kept however little is left of it: a

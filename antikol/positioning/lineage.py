@@ -4,11 +4,18 @@ The candidates of a batch of fixes, ranked per vehicle, become each vehicle's hy
 slots: the most probable ``k`` (beyond the first only those above ``min_probability``).
 Slot 0 is the **lineage** the reported position follows: the best candidate, unless it does
 not descend from the previous slot 0 and is not decisive (below ``switch_probability``)
-while a descendant of the previous lineage is still plausible — so successive reported
-positions stay connected by the track. A standing vehicle has not left its lineage's
-place: only very decisive evidence (``standing_switch_probability``) moves it to another,
-however little is left of the lineage (the fixes of a tram waiting beside another track
-drift; the tram does not).
+while the previous lineage is still plausible — all its descendants together, as past a
+switch it splits over the branches — so successive reported positions stay connected by
+the track. The lineage is then followed on its most probable descendant. A standing
+vehicle has not left its lineage's place: only very decisive evidence
+(``standing_switch_probability``) moves it to another, however little is left of the
+lineage (the fixes of a tram waiting beside another track drift; the tram does not).
+
+A change of lineage restarts the vehicle's along-track filter at the new lineage's progress
+(:class:`~antikol.positioning.matcher.Positioner`), unless the new lineage descends from a
+hypothesis at the old one's place, within a few metres along the track (the two sides of a
+node a vehicle stands at): that is no move, and one stray fix taken by the other side must
+not carry the filter with it.
 """
 
 from __future__ import annotations
@@ -96,9 +103,15 @@ def plan_slots(
     first_lineage = first_lineage[go]
     has_lineage = first_lineage < n_ranked
     lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
+    # the lineage is as plausible as all its descendants together: past a switch it splits
+    # over the branches, and each branch alone may look implausible beside another track
+    of_lineage = parent[rank_order] == 0
+    lineage_mass = np.bincount(
+        group[of_lineage], weights=p[rank_order[of_lineage]], minlength=len(bounds)
+    )[go]
     decisive = np.where(standing[go], standing_switch_probability, switch_probability)
     keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= decisive)
-    held = has_lineage & ((p[lineage] > 1.0 - switch_probability) | standing[go])
+    held = has_lineage & ((lineage_mass > 1.0 - switch_probability) | standing[go])
     chosen = np.where(~keep_best & held, lineage, best)
     # slots: the chosen one first, then the other members in rank order
     chosen_of = np.full(len(bounds), -1)

@@ -440,8 +440,7 @@ class Positioner:
         prev_t = self._f.t[rows]
         has_prev = np.isfinite(prev_t)
         dt = np.where(has_prev, t - prev_t, 1.0)
-        # the displacement counts from the last position fix (reports without one may
-        # have come in between)
+        # displacement from the last position fix (reports without one come in between)
         dt_fix = np.where(np.isfinite(self._f.t_fix[rows]), t - self._f.t_fix[rows], dt)
         moved = np.hypot(xs - self._f.x[rows], ys - self._f.y[rows])
         prev_v = self._f.v[rows]
@@ -612,17 +611,27 @@ class Positioner:
         )
         r = rows[m_group]
         done = rows[go]
+        switched = ~fresh[go] & (parent[chosen] != 0)
+        progress = prog[chosen]
+        if switched.any():
+            # from a slot at the same place (see lineage): the filter goes on, rebased
+            at, rw, j = np.flatnonzero(switched), done[switched], parent[chosen[switched]]
+            gap = self.reach.between(f.hs[rw, 0], f.ho[rw, 0], f.hs[rw, j], f.ho[rw, j])
+            same = np.abs(gap) <= _SAME_PLACE_M
+            progress[at[same]] += (f.hg[rw, 0] + gap - f.hg[rw, j])[same]
+            switched[at[same]] = False
+            self.stats["lineage_switch_in_place"] += int(np.count_nonzero(same))
         f.hs[done] = -1
         f.hp[done] = _NEG_INF
         f.hs[r, col] = cs[m_idx]
         f.ho[r, col] = co[m_idx]
         f.hp[r, col] = np.log(np.maximum(p[m_idx], 1e-300))
         f.hg[r, col] = prog[m_idx]
+        f.hg[done, 0] = progress
         f.hw[r, col] = ww[m_idx]
         f.hv[r, col] = came[m_idx]
         for name, values in zip(FIX_ERROR_FIELDS, error_cols, strict=True):
             getattr(f, name)[r, col] = values[m_idx]
-        switched = ~fresh[go] & (parent[chosen] != 0)
         self.stats["lineage_switch"] += int(np.count_nonzero(switched))
         run_track_filters(
             f,
@@ -630,13 +639,13 @@ class Positioner:
             self.stats,
             rows[go],
             (measured[0][go], measured[1][go], measured[2][go], measured[3][go]),
-            prog[chosen],
+            progress,
             fresh[go] | switched,
         )
         if self.fixes.active:
             for k in np.flatnonzero(~fresh[go] & ~switched).tolist():
                 i = int(go[k])
-                self.fixes.track_expected(reports[i].vehicle_id, self, rows[i], prog[chosen[k]])
+                self.fixes.track_expected(reports[i].vehicle_id, self, rows[i], progress[k])
         f.unmatched[done] = False
         f.rejected[done] = 0
         self.stats["matched"] += len(go)
@@ -679,11 +688,9 @@ class Positioner:
         hs, ho = self._f.hs[rows], self._f.ho[rows]
         prob = np.where(hs >= 0, np.exp(self._f.hp[rows]), 0.0)
         first = np.zeros(hs.shape[1], dtype=np.intp)  # slot 0 in every column
-        s0, o0 = hs[:, first], ho[:, first]
         others = np.where(hs >= 0, hs, 0)
-        fwd = self.reach.ahead(s0, o0, others, ho)
-        back = self.reach.ahead(others, ho, s0, o0)
-        same = (hs == s0) | (np.minimum(fwd, back) <= _SAME_PLACE_M)
+        gap = self.reach.between(hs[:, first], ho[:, first], others, ho)
+        same = (hs == hs[:, first]) | (np.abs(gap) <= _SAME_PLACE_M)
         same[:, 0] = True
         return np.minimum(np.sum(np.where(same & (hs >= 0), prob, 0.0), axis=1), 1.0)
 

@@ -191,6 +191,16 @@ class ReachTable:
         table = self._physical if physical else self._permitted
         return self._forward(table, frm, frm_offset_m, to, to_offset_m)
 
+    def between(
+        self, frm: IntArray, frm_offset_m: FloatArray, to: IntArray, to_offset_m: FloatArray
+    ) -> FloatArray:
+        """Signed distance along the track from one position to another, m: positive when
+        ``to`` lies ahead in ``frm``'s running direction, negative behind (the nearer way
+        when both are within ``reach_m``), ``inf`` when neither is."""
+        fwd = self.ahead(frm, frm_offset_m, to, to_offset_m)
+        back = self.ahead(to, to_offset_m, frm, frm_offset_m)
+        return np.where(fwd <= back, fwd, -back)
+
     def adjacent(self, frm: IntArray, to: IntArray, *, physical: bool = True) -> BoolArray:
         """Whether state ``to`` is entered straight from the end of state ``frm`` (one node
         between them, no track)."""
