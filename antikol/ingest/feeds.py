@@ -12,7 +12,9 @@ format         what it is
 =============  ============================================================================
 
 :func:`detect_log_format` looks at the suffix and the first bytes; :func:`read_log` reads
-any of them into a :class:`~antikol.ingest.replaylog.ReplayLog`.
+any of them into a :class:`~antikol.ingest.replaylog.ReplayLog`. Operator feeds (``hfp``,
+``gtfs-rt``) may be compressed with gzip, bzip2 or xz (:mod:`antikol.ingest.compressed`):
+``positions.csv.gz`` is recognised and read as ``positions.csv``.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from pathlib import Path
 from typing import Final, Literal
 
 from antikol.errors import InputFileError
+from antikol.ingest.compressed import logical_suffix, read_head
 from antikol.ingest.gtfsrt import GTFS_RT_SUFFIXES, read_gtfs_realtime
 from antikol.ingest.hfp import looks_like_hfp_csv, read_hfp
 from antikol.ingest.replaylog import (
@@ -58,7 +61,7 @@ def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
     """
     p = Path(path)
     if p.is_dir():
-        names = [f.suffix.lower() for f in p.iterdir() if f.is_file()]
+        names = [logical_suffix(f) for f in p.iterdir() if f.is_file()]
         if any(s in GTFS_RT_SUFFIXES for s in names):
             return "gtfs-rt"
         if any(s == ".nmea" for s in names) or not names:
@@ -69,16 +72,12 @@ def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
         )
     if not p.is_file():
         raise InputFileError(f"{p}: no such file or directory")
-    suffix = p.suffix.lower()
+    suffix = logical_suffix(p)  # a compressed log is named by its content's suffix
     if suffix in GTFS_RT_SUFFIXES:
         return "gtfs-rt"
     if suffix in _JSON_SUFFIXES:
         return "hfp"
-    try:
-        with p.open("rb") as fh:
-            head = fh.read(4096)
-    except OSError as exc:
-        raise InputFileError(f"{p}: cannot read the log: {exc.strerror or exc}") from exc
+    head = read_head(p, what="log")
     # the first line decides; a bad byte further on (a text log with one Latin-1 byte)
     # must not make the file look binary
     text = head.decode("utf-8-sig", errors="replace")

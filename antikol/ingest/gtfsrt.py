@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from antikol.errors import InputFileError
+from antikol.ingest.compressed import logical_suffix, read_input
 from antikol.ingest.feed_common import FeedCollector, FeedRecord
 from antikol.ingest.replaylog import ReplayLog
 
@@ -143,7 +144,8 @@ def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) ->
     ----------
     path : path-like
         A ``FeedMessage`` file, or a directory of them (files with a suffix of
-        :data:`GTFS_RT_SUFFIXES`, read in name order).
+        :data:`GTFS_RT_SUFFIXES`, read in name order); each may be compressed with gzip,
+        bzip2 or xz (``.pb.gz``; :mod:`antikol.ingest.compressed`).
     strict : bool
         Raise :class:`~antikol.errors.ReplayError` at the first bad file or entity.
 
@@ -163,7 +165,7 @@ def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) ->
 
     p = Path(path)
     if p.is_dir():
-        files = sorted(f for f in p.iterdir() if f.suffix.lower() in GTFS_RT_SUFFIXES)
+        files = sorted(f for f in p.iterdir() if logical_suffix(f) in GTFS_RT_SUFFIXES)
         if not files:
             raise InputFileError(
                 f"{p}: no GTFS-realtime files ({', '.join(GTFS_RT_SUFFIXES)}) in the directory"
@@ -177,9 +179,13 @@ def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) ->
     records: list[FeedRecord] = []
     for f in files:
         try:
-            msg = feed_message(f.read_bytes())
+            decoded = read_input(f, what="GTFS-realtime file")
+            if decoded.problem is not None:  # a cut snapshot is no snapshot
+                out.problem(0, str(f), decoded.problem)
+                continue
+            msg = feed_message(decoded.data)
         except OSError as exc:
-            out.problem(0, str(f), f"unreadable: {exc.strerror or exc}")
+            out.problem(0, str(f), f"unreadable: {exc}")
             continue
         except DecodeError as exc:
             out.problem(0, str(f), f"not a GTFS-realtime FeedMessage: {exc}")

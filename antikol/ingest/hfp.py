@@ -51,7 +51,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Final
 
-from antikol.errors import InputFileError, ReplayError
+from antikol.errors import ReplayError
+from antikol.ingest.compressed import logical_suffix, read_input
 from antikol.ingest.feed_common import FeedCollector, FeedRecord
 from antikol.ingest.replaylog import ReplayLog
 
@@ -246,7 +247,8 @@ def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog
     ----------
     path : path-like
         ``.csv`` files (or files whose first line names the HFP fields) are read as CSV,
-        anything else as JSON.
+        anything else as JSON; either may be compressed with gzip, bzip2 or xz
+        (:mod:`antikol.ingest.compressed`: ``.csv.gz`` is read as CSV).
     strict : bool
         Raise :class:`~antikol.errors.ReplayError` at the first bad record.
 
@@ -254,29 +256,29 @@ def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog
     -------
     ReplayLog
         Reports in time order (``t`` in Unix seconds), bad records with their line or
-        record number and reason, and the counts of ignored events.
+        record number and reason, and the counts of ignored events. A compressed file
+        cut short gives the records before the cut and a problem at record 0.
 
     Raises
     ------
     InputFileError
-        The file is missing or unreadable.
+        The file is missing or unreadable (or compressed and damaged from its start).
     ReplayError
         A CSV header without the HFP fields, or a bad record in strict mode.
     """
     p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise InputFileError(f"{p}: cannot read the HFP log: {exc.strerror or exc}") from exc
+    decoded = read_input(p, what="HFP log")
     # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
     # rejected if the byte is in a field it needs, the rest of the file is read as usual
-    text = raw.decode("utf-8-sig", errors="surrogateescape")
+    text = decoded.data.decode("utf-8-sig", errors="surrogateescape")
     first = text.lstrip().split("\n", 1)[0]
-    is_csv = p.suffix.lower() == ".csv" or (
+    is_csv = logical_suffix(p) == ".csv" or (
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
     )
     messages = _csv_records(io.StringIO(text, newline=""), p) if is_csv else _json_messages(text)
     out = FeedCollector(str(p), strict=strict)
+    if decoded.problem is not None:  # the records before the cut are read all the same
+        out.problem(0, str(p), decoded.problem)
     records: list[FeedRecord] = []
     for number, message in messages:
         if isinstance(message, Exception):

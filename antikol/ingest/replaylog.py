@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any, BinaryIO, Final
 
 from antikol.errors import InputFileError, InvalidReportError, ReplayError
+from antikol.ingest.compressed import open_input, stream_problem
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -167,7 +168,9 @@ def iter_replay_csv(
     The file is streamed (constant memory) and decoded line by line: a line that is not
     UTF-8, has a quote that does not close, too few fields or a bad value is a
     :class:`RowProblem` with its line number; the lines around it are unaffected. Blank
-    lines yield nothing.
+    lines yield nothing. A log compressed with gzip, bzip2 or xz is read as its content
+    (:mod:`antikol.ingest.compressed`); one cut short ends in a :class:`RowProblem` after
+    its last line.
 
     Parameters
     ----------
@@ -189,11 +192,8 @@ def iter_replay_csv(
         optional column named twice), or a line is bad in strict mode.
     """
     p = Path(path)
-    try:
-        fh = p.open("rb")
-    except OSError as exc:
-        raise InputFileError(f"{p}: cannot open the replay log: {exc.strerror or exc}") from exc
-    with fh:
+    number = 0
+    with open_input(p, what="replay log") as fh:
         lines = _physical_lines(fh, p)
         optional: dict[str, int] | None = None
         for number, raw in lines:
@@ -212,6 +212,11 @@ def iter_replay_csv(
                 yield RowProblem(number, str(exc), code=exc.code)
                 continue
             yield report
+        cut = stream_problem(fh)
+        if cut is not None:  # a compressed log cut short: the lines before it stand
+            if strict or optional is None:
+                raise ReplayError(f"{p}:{number + 1}: {cut}")
+            yield RowProblem(number + 1, cut, code="compressed stream cut")
         if optional is None:
             raise ReplayError(f"{p}: empty file (expected a header line)")
 
