@@ -28,8 +28,8 @@ from antikol.ingest.compressed import (
 from antikol.ingest.gtfsrt import write_feed_message
 from antikol.ingest.replaylog import iter_replay_csv, write_replay_csv
 from antikol.sim import GpsModel, Simulator, fleet
+from tests._feeds import EPOCH, gtfs_vehicle
 
-EPOCH = 1_702_540_800.0
 _COMPRESS = {"gzip": gzip.compress, "bzip2": bz2.compress, "xz": lzma.compress}
 _SUFFIX = {"gzip": ".gz", "bzip2": ".bz2", "xz": ".xz"}
 
@@ -170,19 +170,7 @@ def test_replay_runs_on_a_directory_of_compressed_gtfs_realtime_snapshots(
     feed.mkdir()
     for k, r in enumerate(simulated[:20]):
         plain = tmp_path / f"{k:03d}.pb"
-        write_feed_message(
-            plain,
-            [
-                {
-                    "id": r.vehicle_id,
-                    "timestamp": int(EPOCH + r.t),
-                    "lat": r.lat,
-                    "lon": r.lon,
-                    "speed": r.speed_mps,
-                    "bearing": r.course_deg,
-                }
-            ],
-        )
+        write_feed_message(plain, [gtfs_vehicle(r)])
         (feed / f"{k:03d}.pb.gz").write_bytes(gzip.compress(plain.read_bytes()))
     assert detect_log_format(feed) == "gtfs-rt"
     assert len(read_log(feed).reports) == 20

@@ -15,8 +15,7 @@ from antikol.errors import InputFileError, ReplayError
 from antikol.ingest import detect_log_format, read_gtfs_realtime, read_hfp, read_log
 from antikol.ingest.gtfsrt import write_feed_message
 from antikol.sim import GpsModel, Simulator, fleet
-
-EPOCH = 1_702_540_800.0  # 2023-12-14 08:00:00 UTC
+from tests._feeds import EPOCH, gtfs_vehicle
 
 
 @pytest.fixture(scope="module")
@@ -191,19 +190,7 @@ def test_replay_cli_reads_the_feeds(simulated, tmp_path, capsys):
     feed = tmp_path / "rt"
     feed.mkdir()
     for k, r in enumerate(simulated[:30]):
-        write_feed_message(
-            feed / f"{k:03d}.pb",
-            [
-                {
-                    "id": r.vehicle_id,
-                    "timestamp": int(EPOCH + r.t),
-                    "lat": r.lat,
-                    "lon": r.lon,
-                    "speed": r.speed_mps,
-                    "bearing": r.course_deg,
-                }
-            ],
-        )
+        write_feed_message(feed / f"{k:03d}.pb", [gtfs_vehicle(r)])
     assert main(["replay", str(feed), "-o", str(events), "--map", "none"]) == 0
     assert "(gtfs-rt)" in capsys.readouterr().out
     assert main(["replay", str(path), "--format", "gtfs-rt", "-o", str(events)]) == 2

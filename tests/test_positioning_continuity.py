@@ -581,14 +581,18 @@ def test_wrong_way_running_the_map_does_not_connect_is_found_from_a_fresh_start(
     assert all(p.status == "ambiguous" for p in against_course), after
 
 
+#: Two places on the embedded map: edges by index modulo their number, offsets as shares.
+_TWO_PLACES = {
+    "frm_edge": st.integers(min_value=0, max_value=10**6),
+    "to_edge": st.integers(min_value=0, max_value=10**6),
+    "frm_at": st.floats(min_value=0.0, max_value=1.0),
+    "to_at": st.floats(min_value=0.0, max_value=1.0),
+    "direction": st.sampled_from([1, -1]),
+}
+
+
 @settings(max_examples=200, deadline=None)
-@given(
-    frm_edge=st.integers(min_value=0, max_value=10**6),
-    to_edge=st.integers(min_value=0, max_value=10**6),
-    frm_at=st.floats(min_value=0.0, max_value=1.0),
-    to_at=st.floats(min_value=0.0, max_value=1.0),
-    direction=st.sampled_from([1, -1]),
-)
+@given(**_TWO_PLACES)
 def test_a_step_back_is_never_shorter_than_the_track_allows(
     frm_edge, to_edge, frm_at, to_at, direction
 ):
@@ -625,14 +629,7 @@ def test_a_step_back_is_never_shorter_than_the_track_allows(
         assert homeward == pytest.approx(-(plain if np.isfinite(plain) else anywhere))
 
 
-@given(
-    frm_edge=st.integers(min_value=0, max_value=10**6),
-    to_edge=st.integers(min_value=0, max_value=10**6),
-    frm_at=st.floats(min_value=0.0, max_value=1.0),
-    to_at=st.floats(min_value=0.0, max_value=1.0),
-    direction=st.sampled_from([1, -1]),
-    near=st.booleans(),
-)
+@given(**_TWO_PLACES, near=st.booleans())
 def test_the_gap_between_two_places_is_the_nearer_way_signed(
     frm_edge, to_edge, frm_at, to_at, direction, near
 ):

@@ -8,15 +8,14 @@ import pytest
 from antikol.positioning.lineage import plan_slots
 
 
-def _plan(p_best: float, *, standing: bool, p_lineage: float | None = None):
-    # one report, two candidates ranked by probability: the best descends from another
-    # slot (1) than the reported lineage (0); the second descends from the lineage
-    p_lineage = 1.0 - p_best if p_lineage is None else p_lineage
+def _plan_one(p: list[float], parent: list[int], *, standing: bool):
+    """The slot plan of one report whose candidates, ranked by probability, have the
+    probabilities ``p`` and descend from the previous slots ``parent``."""
     return plan_slots(
-        np.array([0, 1]),
-        np.array([0, 2]),
-        np.array([p_best, p_lineage]),
-        np.array([1, 0]),
+        np.arange(len(p)),
+        np.array([0, len(p)]),
+        np.array(p),
+        np.array(parent),
         np.array([0]),
         fresh=np.array([False]),
         standing=np.array([standing]),
@@ -25,6 +24,13 @@ def _plan(p_best: float, *, standing: bool, p_lineage: float | None = None):
         switch_probability=0.75,
         standing_switch_probability=0.95,
     )
+
+
+def _plan(p_best: float, *, standing: bool, p_lineage: float | None = None):
+    # one report, two candidates ranked by probability: the best descends from another
+    # slot (1) than the reported lineage (0); the second descends from the lineage
+    p_lineage = 1.0 - p_best if p_lineage is None else p_lineage
+    return _plan_one([p_best, p_lineage], [1, 0], standing=standing)
 
 
 @pytest.mark.parametrize(
@@ -57,19 +63,7 @@ def test_a_lineage_split_over_branches_counts_as_all_its_branches():
     # switch and split over two branches, each below the 0.25 that keeps it alone
     def plan(p_lineage: list[float]):
         p = np.array([0.65, *p_lineage])
-        return plan_slots(
-            np.arange(len(p)),
-            np.array([0, len(p)]),
-            p / p.sum(),
-            np.array([1] + [0] * len(p_lineage)),
-            np.array([0]),
-            fresh=np.array([False]),
-            standing=np.array([False]),
-            k=4,
-            min_probability=1e-4,
-            switch_probability=0.75,
-            standing_switch_probability=0.95,
-        )
+        return _plan_one(list(p / p.sum()), [1] + [0] * len(p_lineage), standing=False)
 
     assert plan([0.2, 0.15]).chosen[0] == 1  # together above 0.25: the lineage is kept
     assert plan([0.2, 0.15]).slot[0] == 1
