@@ -35,10 +35,14 @@ _SUFFIX = {"gzip": ".gz", "bzip2": ".bz2", "xz": ".xz"}
 
 
 @pytest.fixture(scope="module")
-def simulated():
+def simulation():
     net = trackmap.load_default()
-    result = Simulator(net, fleet(net, 2, 5), gps=GpsModel.urban(), seed=5).run(60.0)
-    return [r for r in result.reports if r.fix_quality == 1]
+    return Simulator(net, fleet(net, 2, 5), gps=GpsModel.urban(), seed=5).run(60.0)
+
+
+@pytest.fixture(scope="module")
+def simulated(simulation):
+    return [r for r in simulation.reports if r.fix_quality == 1]
 
 
 def _hfp_line(r) -> str:
@@ -182,3 +186,29 @@ def test_replay_runs_on_a_directory_of_compressed_gtfs_realtime_snapshots(
     events = tmp_path / "events.csv"
     assert main(["replay", str(feed), "-o", str(events), "--map", "none"]) == 0
     assert "(gtfs-rt)" in capsys.readouterr().out
+
+
+def test_a_directory_of_compressed_nmea_logs_names_each_vehicle_by_its_file(simulation, tmp_path):
+    plain = tmp_path / "plain"
+    written = simulation.write_nmea(plain)
+    packed = tmp_path / "packed"
+    packed.mkdir()
+    for k, f in enumerate(written):  # one vehicle gzip, the other xz
+        blob = (gzip.compress if k % 2 == 0 else lzma.compress)(f.read_bytes())
+        (packed / (f.name + (".gz" if k % 2 == 0 else ".xz"))).write_bytes(blob)
+    assert detect_log_format(packed) == "nmea"
+    got, want = read_log(packed), read_log(plain)
+    assert got.reports == want.reports and {r.vehicle_id for r in got.reports} == {"T01", "T02"}
+    # a log cut short keeps its sentences before the cut, and says so
+    first = sorted(packed.iterdir())[0]
+    blob = first.read_bytes()
+    first.write_bytes(blob[: len(blob) // 2])
+    cut = read_log(packed)
+    assert 0 < len(cut.reports) < len(want.reports)
+    assert [p.code for p in cut.problems if p.code == "compressed stream cut"] == [
+        "compressed stream cut"
+    ]
+    # the same vehicle twice, plain and compressed, is an error naming both
+    (packed / written[0].name).write_bytes(written[0].read_bytes())
+    with pytest.raises(InputFileError, match="two files for vehicle"):
+        read_log(packed)

@@ -37,6 +37,7 @@ __all__ = [
     "Decoded",
     "DecompressedStream",
     "compression_of",
+    "logical_stem",
     "logical_suffix",
     "open_input",
     "read_head",
@@ -87,6 +88,15 @@ def logical_suffix(path: str | os.PathLike[str]) -> str:
     if suffix in COMPRESSION_SUFFIXES:
         return Path(p.stem).suffix.lower()
     return suffix
+
+
+def logical_stem(path: str | os.PathLike[str]) -> str:
+    """A file's name without its format suffix and compression suffix (``t1.nmea.gz`` ->
+    ``t1``)."""
+    p = Path(path)
+    if p.suffix.lower() in COMPRESSION_SUFFIXES:
+        p = Path(p.stem)
+    return p.stem
 
 
 def _decompressor(compression: str) -> Any:

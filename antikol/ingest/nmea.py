@@ -108,6 +108,7 @@ from pynmeagps.exceptions import NMEAMessageError, NMEAParseError, NMEATypeError
 from pynmeagps.nmeahelpers import calc_checksum, get_parts
 
 from antikol.errors import InputFileError, InvalidReportError
+from antikol.ingest.compressed import logical_stem, logical_suffix, open_input, stream_problem
 from antikol.ingest.nmea_fields import (
     _LEAP,
     _coordinate,
@@ -203,6 +204,8 @@ class NmeaStats:
         every line holds at most one ``$``.
     flagged : collections.Counter of str
         Emitted reports with a substituted value, by kind (``"course_missing"``).
+    cut : str or None
+        Why a compressed log ended early (its stream cut short or damaged), else None.
     """
 
     lines: int = 0
@@ -210,6 +213,7 @@ class NmeaStats:
     used: int = 0
     skipped: Counter[str] = field(default_factory=Counter)
     flagged: Counter[str] = field(default_factory=Counter)
+    cut: str | None = None
 
     @property
     def total_skipped(self) -> int:
@@ -671,7 +675,8 @@ def read_nmea_file(
     path : str or os.PathLike
         The log file: one sentence per line (LF, CRLF or CR line ends).
     vehicle_id : str, optional
-        Identifier of the vehicle; defaults to the file name without its suffix.
+        Identifier of the vehicle; defaults to the file name without its suffix (and
+        without a compression suffix: ``t1.nmea.gz`` is ``t1``).
     length_m, antenna_offset_m : float, optional
         Put in every report, metres (see :class:`NmeaReader`).
 
@@ -690,14 +695,10 @@ def read_nmea_file(
         The vehicle identifier (e.g. a too long file name) or an option is invalid.
     """
     file = Path(path)
-    try:
-        stream = file.open("rb")
-    except OSError as err:
-        raise InputFileError(f"cannot read NMEA file {str(file)!r}: {err}") from err
     reports: list[VehicleReport] = []
-    with stream:
+    with open_input(file, what="NMEA file") as stream:
         reader = NmeaReader(
-            file.stem if vehicle_id is None else vehicle_id,
+            logical_stem(file) if vehicle_id is None else vehicle_id,
             length_m=length_m,
             antenna_offset_m=antenna_offset_m,
         )
@@ -708,14 +709,17 @@ def read_nmea_file(
                     reports.extend(reader.feed_line(line))
         except OSError as err:
             raise InputFileError(f"cannot read NMEA file {str(file)!r}: {err}") from err
+        cut = stream_problem(stream)
     reports.extend(reader.flush())
+    reader.stats.cut = cut
     return reports, reader.stats
 
 
 def list_nmea_files(path: str | os.PathLike[str]) -> list[Path]:
     """The files of a directory that may be NMEA logs, sorted by name.
 
-    Names ending in ``.nmea``, ``.txt`` or ``.log`` (any case), not recursively.
+    Names ending in ``.nmea``, ``.txt`` or ``.log`` (any case), also followed by ``.gz``,
+    ``.bz2`` or ``.xz``; not recursively.
 
     Raises
     ------
@@ -727,7 +731,7 @@ def list_nmea_files(path: str | os.PathLike[str]) -> list[Path]:
         raise InputFileError(f"not a directory of NMEA files: {str(directory)!r}")
     try:
         return sorted(
-            p for p in directory.iterdir() if p.suffix.lower() in FILE_SUFFIXES and p.is_file()
+            p for p in directory.iterdir() if logical_suffix(p) in FILE_SUFFIXES and p.is_file()
         )
     except OSError as err:
         raise InputFileError(f"cannot list directory {str(directory)!r}: {err}") from err
@@ -739,7 +743,8 @@ def read_nmea_directory(
     """Read a directory of NMEA logs, one file per vehicle.
 
     Files whose names end in ``.nmea``, ``.txt`` or ``.log`` (any case) are read, not
-    recursively; each file's name without its suffix is the vehicle identifier.
+    recursively, each possibly compressed with gzip, bzip2 or xz (``t1.nmea.gz``); each
+    file's name without its suffixes is the vehicle identifier.
 
     Parameters
     ----------
@@ -769,12 +774,13 @@ def read_nmea_directory(
         )
     by_vehicle: dict[str, Path] = {}
     for file in files:
-        if file.stem in by_vehicle:
+        vehicle = logical_stem(file)
+        if vehicle in by_vehicle:
             raise InputFileError(
-                f"two files for vehicle {file.stem!r}: {by_vehicle[file.stem].name!r} and "
+                f"two files for vehicle {vehicle!r}: {by_vehicle[vehicle].name!r} and "
                 f"{file.name!r} in {str(directory)!r}"
             )
-        by_vehicle[file.stem] = file
+        by_vehicle[vehicle] = file
     reports: dict[str, list[VehicleReport]] = {}
     stats: dict[str, NmeaStats] = {}
     for vehicle_id in sorted(by_vehicle):

@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any, BinaryIO, Final
 
 from antikol.errors import InputFileError, InvalidReportError, ReplayError
-from antikol.ingest.compressed import open_input, stream_problem
+from antikol.ingest.compressed import logical_stem, open_input, stream_problem
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -545,8 +545,10 @@ def _unspill(f: BinaryIO) -> Iterator[tuple[float, int, VehicleReport]]:
 def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
     """Read a directory of per-vehicle NMEA logs (``<vehicle_id>.nmea``...) as one log.
 
-    Files named ``*.nmea``, ``*.txt`` or ``*.log`` are read (not recursively); each file's
-    name without its suffix is the vehicle id. A file in which no line holds an NMEA
+    Files named ``*.nmea``, ``*.txt`` or ``*.log`` are read (not recursively), each possibly
+    compressed with gzip, bzip2 or xz (``t1.nmea.gz``; a log cut short keeps its sentences
+    before the cut, and the cut is a problem of the file); each file's name without its
+    suffixes is the vehicle id. A file in which no line holds an NMEA
     sentence (no ``$``: a ``README.txt``, notes) is not a vehicle's log: it is counted in
     :attr:`ReplayLog.ignored` under its name. Skipped sentences are reported per file.
 
@@ -574,22 +576,27 @@ def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
             reason = f"not an NMEA log (no sentence in {stats.lines} line(s)): {file.name}"
             log.ignored[reason] = log.ignored.get(reason, 0) + 1
             continue
-        if file.stem in by_vehicle:
+        vehicle = logical_stem(file)
+        if vehicle in by_vehicle:
             raise InputFileError(
-                f"two files for vehicle {file.stem!r}: {by_vehicle[file.stem].name!r} and "
+                f"two files for vehicle {vehicle!r}: {by_vehicle[vehicle].name!r} and "
                 f"{file.name!r} in {str(directory)!r}"
             )
-        by_vehicle[file.stem] = file
+        by_vehicle[vehicle] = file
         log.reports.extend(reports)
         if stats.total_skipped:
             log.problems.append(
                 RowProblem(
                     0,
-                    f"{file.stem}: {stats.total_skipped} NMEA sentence(s) skipped "
+                    f"{vehicle}: {stats.total_skipped} NMEA sentence(s) skipped "
                     f"({dict(stats.skipped)})",
                     str(file),
                     code="NMEA sentences skipped",
                 )
+            )
+        if stats.cut is not None:  # the sentences before the cut are read all the same
+            log.problems.append(
+                RowProblem(0, f"{vehicle}: {stats.cut}", str(file), code="compressed stream cut")
             )
     if not by_vehicle:
         raise InputFileError(
