@@ -12,9 +12,10 @@ format         what it is
 =============  ============================================================================
 
 :func:`detect_log_format` looks at the suffix and the first bytes; :func:`read_log` reads
-any of them into a :class:`~antikol.ingest.replaylog.ReplayLog`. Operator feeds (``hfp``,
-``gtfs-rt``) may be compressed with gzip, bzip2 or xz (:mod:`antikol.ingest.compressed`):
-``positions.csv.gz`` is recognised and read as ``positions.csv``.
+any of them into a :class:`~antikol.ingest.replaylog.ReplayLog`. Every file of any format
+may be compressed with gzip, bzip2 or xz (:mod:`antikol.ingest.compressed`):
+``positions.csv.gz`` is recognised and read as ``positions.csv``, ``t1.nmea.gz`` as the
+NMEA log of ``t1``.
 """
 
 from __future__ import annotations
