@@ -83,6 +83,29 @@ def test_a_fix_far_off_along_the_track_does_not_move_the_reported_position(strai
     assert pos.stats["along_outlier"] == 1
 
 
+@pytest.mark.parametrize("copies", [True, False])
+def test_an_outlier_a_feed_repeats_counts_once_towards_a_restart(straight, copies):
+    # a tram stands at 100 m (its odometer still); from t = 8 s the feed sends a position
+    # 70 m ahead along the track for 8 s. Exact copies of one outlier (a feed freezing it
+    # through an outage) are one piece of evidence: they used to count as three
+    # rejections in a row and restart the tram there. Distinct fixes there do restart it
+    reports = _on_the_line(0.0, 80)
+    standing = reports[8]
+    for k in range(8, 16):
+        jitter = 0.0 if copies else 0.3 * k
+        reports[k] = dataclasses.replace(_moved(standing, jitter, 70.0), t=reports[k].t)
+    pos = Positioner(straight)
+    out = [pos.update(r) for r in reports]
+    if copies:
+        assert all(p.offset_m == pytest.approx(100.0, abs=5.0) for p in out)
+        assert pos.stats["reset_after_rejections"] == 0
+    else:
+        assert out[15].offset_m == pytest.approx(170.0, abs=5.0)
+        # back at 100 m, the receiver holding one position: its copies count once, but
+        # not for ever (dead_reckoning_s after the last accepted fix)
+        assert out[-1].offset_m == pytest.approx(100.0, abs=5.0)
+
+
 def test_a_fix_no_place_explains_is_dead_reckoned_over(straight):
     # 20 m beside the track and 20 m ahead of where the odometer puts the vehicle: within
     # the search radius and what physics allows, but every candidate explains it badly;

@@ -1,8 +1,9 @@
 """Track-selective positioning: candidates → HMM over (edge, direction) → along-track filter.
 
 * :mod:`antikol.positioning.matcher` — the :class:`Positioner` (online HMM with a GPS bias
-  per hypothesis, physics checks, the reported lineage), vectorised over a fleet, with its
-  parts: :mod:`~antikol.positioning.candidates` (places near each fix),
+  per hypothesis, the reported lineage), vectorised over a fleet, with its parts:
+  :mod:`~antikol.positioning.physics` (reports no vehicle can make),
+  :mod:`~antikol.positioning.candidates` (places near each fix),
   :mod:`~antikol.positioning.scoring` (one HMM step), :mod:`~antikol.positioning.fleet`
   (the state arrays), :mod:`~antikol.positioning.deadreckoning` (moving along the track
   without a fix) and :mod:`~antikol.positioning.placing` (the reported place of each

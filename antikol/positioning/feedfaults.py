@@ -9,7 +9,12 @@ filter restarts at the frozen place after a few of them, and the returning fixes
 a jump. A real fix of a moving vehicle never repeats the previous report's coordinates to
 the last digit, so a report that does, after a run of ``stale_fix_run_m`` since the last
 fix, is dead-reckoned like a report without a fix (:func:`stale_fixes`; counted,
-``stale_fix``).
+``stale_fix``). While the vehicle stands, a repeated position may well be its own (a
+receiver holding a static position) and stays a fix; but when the position repeated is one
+that was rejected (a far outlier frozen by the feed through an outage), each copy is the
+same evidence and counts once towards the rejections in a row that start a vehicle afresh
+(:meth:`~antikol.positioning.fleet.FleetState.repeats_rejected`): before, three copies of
+one outlier 64 m off put a standing tram there.
 
 **Reset odometers.** Some feeds report the distance run since the start of the trip, back
 to zero at every new trip. A reading that goes back (:func:`odometer_resets`; counted,

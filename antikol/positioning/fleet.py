@@ -29,13 +29,14 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
 
 #: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
 SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", *FIX_ERROR_FIELDS)
 #: Per-vehicle float arrays of the fleet state.
 VEHICLE_FIELDS = (
     "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
-    "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood",
+    "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood", "rx", "ry",
 )  # fmt: skip
 
 
@@ -84,7 +85,8 @@ class FleetState:
     # probability of the reported place, rejections, confident matches and along-track
     # innovations beyond the gate in a row; the distance run (m) and the latency filter
     # (:mod:`antikol.positioning.latency`: offset, m, latency, s, and their covariance);
-    # how long it has stood at its last fix, s
+    # how long it has stood at its last fix, s; the local position of the last rejected
+    # fix (m, NaN: none since the last accepted one)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -100,6 +102,8 @@ class FleetState:
     lpct: FloatArray = field(init=False)
     lptt: FloatArray = field(init=False)
     stood: FloatArray = field(init=False)
+    rx: FloatArray = field(init=False)
+    ry: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -151,7 +155,7 @@ class FleetState:
         self.hs[row] = -1
         self.hp[row] = -math.inf
         self.hv[row] = -1.0
-        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt"):
+        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry"):
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
@@ -160,6 +164,21 @@ class FleetState:
         self.kf.t[row] = np.nan
         self.last[row] = None
         self.lost[row] = None
+
+    def repeats_rejected(
+        self, rows: IntArray, xs: FloatArray, ys: FloatArray, t_s: FloatArray, within_s: float
+    ) -> BoolArray:
+        """Which fixes (local positions, m; times, s) repeat the last rejected fix of their
+        vehicle exactly, within ``within_s`` of its last accepted fix: a feed that repeats
+        its last position through an outage, or a receiver holding a static position, gives
+        no new evidence with each copy (but a position held that long is where the vehicle
+        is, or the vehicle could never leave a wrong place while its receiver holds)."""
+        fresh = t_s - self.t_fix[rows] < within_s
+        return (xs == self.rx[rows]) & (ys == self.ry[rows]) & fresh
+
+    def note_rejected(self, rows: IntArray, xs: FloatArray, ys: FloatArray) -> None:
+        """Remember the rejected fixes (local positions, m) of vehicles ``rows``."""
+        self.rx[rows], self.ry[rows] = xs, ys
 
     def run_since_fix(
         self, rows: IntArray, t_s: FloatArray, speed_mps: FloatArray, odometer_m: FloatArray

@@ -73,6 +73,7 @@ from antikol.positioning.outputs import (
     track_positions,
     unmatched_position,
 )
+from antikol.positioning.physics import implausible
 from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
@@ -398,11 +399,14 @@ class Positioner:
         xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
 
         # 1. physics: reject what a vehicle cannot do (the state stays untouched)
-        reason = self._implausible(rows, t, speed, xs, ys, no_fix)
+        reason = implausible(self._f, c, rows, (t, speed, xs, ys), no_fix)
         rejected = reason != ""
+        # a copy of the last rejected fix is no new evidence that the vehicle is elsewhere
+        repeat = f.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s)
+        f.note_rejected(rows[rejected], xs[rejected], ys[rejected])
         for i in np.flatnonzero(rejected):
             row = rows[i]
-            self._f.rejected[row] += 1
+            self._f.rejected[row] += 0 if repeat[i] else 1
             self.stats[f"rejected_{reason[i]}"] += 1
             if self._f.rejected[row] >= c.max_rejections_in_row:
                 self.stats["reset_after_rejections"] += 1
@@ -425,38 +429,6 @@ class Positioner:
             [reports[i] for i in idx], rows[idx], t[idx], speed[idx], odo[idx], xs[idx], ys[idx]
         )
 
-    def _implausible(
-        self,
-        rows: IntArray,
-        t: FloatArray,
-        speed: FloatArray,
-        xs: FloatArray,
-        ys: FloatArray,
-        no_fix: npt.NDArray[np.bool_],
-    ) -> npt.NDArray[np.str_]:
-        """Why each report is physically impossible ('' when it is plausible)."""
-        c = self.config
-        out = np.full(len(rows), "", dtype=object)
-        prev_t = self._f.t[rows]
-        has_prev = np.isfinite(prev_t)
-        dt = np.where(has_prev, t - prev_t, 1.0)
-        # displacement from the last position fix (reports without one come in between)
-        dt_fix = np.where(np.isfinite(self._f.t_fix[rows]), t - self._f.t_fix[rows], dt)
-        moved = np.hypot(xs - self._f.x[rows], ys - self._f.y[rows])
-        prev_v = self._f.v[rows]
-        reach = (
-            np.maximum(speed, prev_v) * dt_fix
-            + 0.5 * c.max_accel_mps2 * dt_fix * dt_fix
-            + c.max_speed_mps * np.maximum(dt_fix - dt, 0.0)
-        )
-        jump = has_prev & ~no_fix & np.isfinite(moved) & (moved > reach + c.jump_margin_m)
-        accel = has_prev & (np.abs(speed - prev_v) > c.max_accel_mps2 * dt + 2.0)
-        out[jump] = "jump"
-        out[accel] = "acceleration"
-        out[has_prev & (dt <= 0)] = "time"
-        out[speed > c.max_speed_mps] = "speed"
-        return out.astype(str)
-
     # -- the fusion of position fixes ----------------------------------------------------
     def _fuse(
         self,
@@ -476,6 +448,8 @@ class Positioner:
         )
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected
+        out = scored.stuck  # an accepted fix forgets the last rejected one
+        self._f.note_rejected(rows, np.where(out, xs, np.nan), np.where(out, ys, np.nan))
         self._commit(reports, rows, t, speed, odo, xs, ys, scored)
         # an outlier fix leaves the hypotheses as they were: carried on the odometer
         self._dead_reckon(np.flatnonzero(scored.stuck), reports, rows, odo)

@@ -277,8 +277,10 @@ def score_fixes(
     reach_any = np.zeros(n, bool)
     np.logical_or.at(reach_any, cv, plausible)
     stuck = ~fresh & ~reach_any
-    # (counted as rejections in a row; enough of them and the vehicle starts afresh)
-    rejected = fleet.rejected[rows] + stuck
+    # (counted as rejections in a row; enough of them and the vehicle starts afresh; a
+    # copy of the last rejected fix counts once: it is the same evidence)
+    repeat = fleet.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s)
+    rejected = fleet.rejected[rows] + (stuck & ~repeat)
     restart = stuck & (rejected >= c.max_rejections_in_row)
     for name, happened in (
         ("unreachable_fix", stuck & ~unmatched),
@@ -317,7 +319,7 @@ def score_fixes(
     poor = ~fresh & ~unmatched & ~stuck & (top_lp < -c.outlier_fix_nats)
     if poor.any():
         stats["outlier_fix"] += int(np.count_nonzero(poor))
-        rejected = rejected + poor
+        rejected = rejected + (poor & ~repeat)
         again = poor & (rejected >= c.max_rejections_in_row)
         stuck = stuck | (poor & ~again)
         rejected[again] = 0
@@ -326,10 +328,10 @@ def score_fixes(
     # not a jump there and back
     relocating = np.zeros(n, bool)
     np.logical_or.at(relocating, cv, moved & (new_lp >= top_lp[cv]))
-    deferred = relocating & ~fresh & ~stuck & (rejected == 0)
+    deferred = relocating & ~fresh & ~stuck & ((rejected == 0) | repeat)
     if deferred.any():
         stats["relocation_deferred"] += int(np.count_nonzero(deferred))
-        rejected = rejected + deferred
+        rejected = rejected + (deferred & ~repeat)
         stuck = stuck | deferred
     # the best parent of each candidate state (a slot without a pair only where the
     # vehicle starts afresh, which every use below masks)
