@@ -86,7 +86,7 @@ class FleetState:
     # innovations beyond the gate in a row; the distance run (m) and the latency filter
     # (:mod:`antikol.positioning.latency`: offset, m, latency, s, and their covariance);
     # how long it has stood at its last fix, s; the local position of the last rejected
-    # fix (m, NaN: none since the last accepted one)
+    # fix (m, NaN: none yet)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)

@@ -95,24 +95,25 @@ def plan_slots(
     committed[go] = True
     member &= committed[group]
     best = rank_order[bounds[go]]
-    lineage_at = np.where(
-        member & (place > 0) & (parent[rank_order] == 0), np.arange(n_ranked), n_ranked
-    )
-    first_lineage = np.full(len(bounds), n_ranked)
-    np.minimum.at(first_lineage, group, lineage_at)
-    first_lineage = first_lineage[go]
-    has_lineage = first_lineage < n_ranked
-    lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
-    # the lineage is as plausible as all its descendants together: past a switch it splits
-    # over the branches, and each branch alone may look implausible beside another track
-    of_lineage = parent[rank_order] == 0
-    lineage_mass = np.bincount(
-        group[of_lineage], weights=p[rank_order[of_lineage]], minlength=len(bounds)
-    )[go]
     decisive = np.where(standing[go], standing_switch_probability, switch_probability)
     keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= decisive)
-    held = has_lineage & ((lineage_mass > 1.0 - switch_probability) | standing[go])
-    chosen = np.where(~keep_best & held, lineage, best)
+    chosen = best
+    if not keep_best.all():  # (most cycles: every best descends from its lineage)
+        of_lineage = parent[rank_order] == 0
+        lineage_at = np.where(member & (place > 0) & of_lineage, np.arange(n_ranked), n_ranked)
+        first_lineage = np.full(len(bounds), n_ranked)
+        np.minimum.at(first_lineage, group, lineage_at)
+        first_lineage = first_lineage[go]
+        has_lineage = first_lineage < n_ranked
+        lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
+        # the lineage is as plausible as all its descendants together: past a switch it
+        # splits over the branches, and each branch alone may look implausible beside
+        # another track
+        lineage_mass = np.bincount(
+            group[of_lineage], weights=p[rank_order[of_lineage]], minlength=len(bounds)
+        )[go]
+        held = has_lineage & ((lineage_mass > 1.0 - switch_probability) | standing[go])
+        chosen = np.where(~keep_best & held, lineage, best)
     # slots: the chosen one first, then the other members in rank order
     chosen_of = np.full(len(bounds), -1)
     chosen_of[go] = chosen

@@ -402,8 +402,10 @@ class Positioner:
         reason = implausible(self._f, c, rows, (t, speed, xs, ys), no_fix)
         rejected = reason != ""
         # a copy of the last rejected fix is no new evidence that the vehicle is elsewhere
-        repeat = f.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s)
-        f.note_rejected(rows[rejected], xs[rejected], ys[rejected])
+        repeat = rejected  # (all False when nothing is rejected)
+        if rejected.any():
+            repeat = f.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s)
+            f.note_rejected(rows[rejected], xs[rejected], ys[rejected])
         for i in np.flatnonzero(rejected):
             row = rows[i]
             self._f.rejected[row] += 0 if repeat[i] else 1
@@ -448,8 +450,9 @@ class Positioner:
         )
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected
-        out = scored.stuck  # an accepted fix forgets the last rejected one
-        self._f.note_rejected(rows, np.where(out, xs, np.nan), np.where(out, ys, np.nan))
+        out = scored.stuck
+        if out.any():
+            self._f.note_rejected(rows[out], xs[out], ys[out])
         self._commit(reports, rows, t, speed, odo, xs, ys, scored)
         # an outlier fix leaves the hypotheses as they were: carried on the odometer
         self._dead_reckon(np.flatnonzero(scored.stuck), reports, rows, odo)
@@ -587,13 +590,15 @@ class Positioner:
         done = rows[go]
         switched = ~fresh[go] & (parent[chosen] != 0)
         progress = prog[chosen]
+        rebased = None
         if switched.any():
             # from a slot at the same place (see lineage): the filter goes on, rebased
             at, rw, j = np.flatnonzero(switched), done[switched], parent[chosen[switched]]
             gap = self.reach.between(f.hs[rw, 0], f.ho[rw, 0], f.hs[rw, j], f.ho[rw, j])
             same = np.abs(gap) <= _SAME_PLACE_M
             progress[at[same]] += (f.hg[rw, 0] + gap - f.hg[rw, j])[same]
-            switched[at[same]] = False
+            rebased = at[same]
+            switched[rebased] = False
             self.stats["lineage_switch_in_place"] += int(np.count_nonzero(same))
         f.hs[done] = -1
         f.hp[done] = _NEG_INF
@@ -601,7 +606,8 @@ class Positioner:
         f.ho[r, col] = co[m_idx]
         f.hp[r, col] = np.log(np.maximum(p[m_idx], 1e-300))
         f.hg[r, col] = prog[m_idx]
-        f.hg[done, 0] = progress
+        if rebased is not None:
+            f.hg[done[rebased], 0] = progress[rebased]
         f.hw[r, col] = ww[m_idx]
         f.hv[r, col] = came[m_idx]
         for name, values in zip(FIX_ERROR_FIELDS, error_cols, strict=True):

@@ -279,7 +279,8 @@ def score_fixes(
     stuck = ~fresh & ~reach_any
     # (counted as rejections in a row; enough of them and the vehicle starts afresh; a
     # copy of the last rejected fix counts once: it is the same evidence)
-    repeat = fleet.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s)
+    noted = ~np.isnan(fleet.rx[rows])
+    repeat = fleet.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s) if noted.any() else noted
     rejected = fleet.rejected[rows] + (stuck & ~repeat)
     restart = stuck & (rejected >= c.max_rejections_in_row)
     for name, happened in (
