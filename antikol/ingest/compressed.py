@@ -185,11 +185,17 @@ def open_input(path: str | os.PathLike[str], *, what: str = "input") -> BinaryIO
     return cast(BinaryIO, io.BufferedReader(DecompressedStream(raw, compression), _CHUNK))
 
 
+def _decompressing(stream: BinaryIO) -> DecompressedStream | None:
+    """The decompressor under a stream from :func:`open_input` (None: a plain file)."""
+    raw = getattr(stream, "raw", None)
+    return raw if isinstance(raw, DecompressedStream) else None
+
+
 def stream_problem(stream: BinaryIO) -> str | None:
     """Why the content of a stream from :func:`open_input` ended early (None: it did not,
     or the file is not compressed)."""
-    raw = getattr(stream, "raw", None)
-    return raw.problem if isinstance(raw, DecompressedStream) else None
+    under = _decompressing(stream)
+    return None if under is None else under.problem
 
 
 def read_input(path: str | os.PathLike[str], *, what: str = "input") -> Decoded:
@@ -217,9 +223,9 @@ def read_input(path: str | os.PathLike[str], *, what: str = "input") -> Decoded:
             data = stream.read()
         except OSError as exc:
             raise InputFileError(f"{p}: cannot read the {what}: {exc.strerror or exc}") from exc
-        problem = stream_problem(stream)
-        raw = getattr(stream, "raw", None)
-        compression = raw.compression if isinstance(raw, DecompressedStream) else None
+        under = _decompressing(stream)
+        problem = None if under is None else under.problem
+        compression = None if under is None else under.compression
     if problem is not None and not data:
         raise InputFileError(f"{p}: cannot read the {what}: {problem}")
     return Decoded(data, compression, problem)
