@@ -1,4 +1,5 @@
-"""Command line interface: ``antikol replay | simulate | compare | demo | onboard | serve``.
+"""Command line interface: ``antikol replay | match | simulate | compare | demo | onboard |
+serve``.
 
 One module per sub-command registers its parser (``add_parser``) and the function that
 runs it; :func:`main` dispatches and turns every failure into one line and an exit status.
@@ -28,7 +29,7 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from antikol.cli import evaluate, onboard, replay, serve
+from antikol.cli import evaluate, match, onboard, replay, serve
 from antikol.cli.common import EXIT_INPUT_ERROR, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK
 from antikol.errors import AntikolError
 
@@ -48,6 +49,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv: debug)")
     sub = p.add_subparsers(dest="command", required=True)
     replay.add_parser(sub)
+    match.add_parser(sub)
     evaluate.add_parsers(sub)
     onboard.add_parser(sub)
     serve.add_parser(sub)

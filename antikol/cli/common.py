@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import csv
+import sys
+from pathlib import Path
+from typing import Any, TextIO
 
+from antikol.errors import InputFileError
+from antikol.ingest.replaylog import RowProblem
 from trackmap.cli import (
     EXIT_INPUT_ERROR,
     EXIT_INTERNAL_ERROR,
@@ -21,6 +26,8 @@ __all__ = [
     "EXIT_INTERNAL_ERROR",
     "EXIT_INTERRUPTED",
     "EXIT_OK",
+    "SHOWN_PROBLEMS",
+    "ProblemPrinter",
     "add_map_option",
     "load_map",
     "non_negative_float",
@@ -56,3 +63,56 @@ def load_map(name: str | None) -> Any:
     from trackmap.named import load_named
 
     return load_named(name)
+
+
+#: Bad records printed on stderr before the rest are only counted.
+SHOWN_PROBLEMS = 20
+
+
+class ProblemPrinter:
+    """Prints the first bad records of a log on stderr and writes all of them to ``--rejects``.
+
+    Parameters
+    ----------
+    rejects : Path, optional
+        CSV to write every rejected record to (source, line, kept, code, reason).
+
+    Raises
+    ------
+    InputFileError
+        ``rejects`` cannot be written.
+    """
+
+    def __init__(self, rejects: Path | None) -> None:
+        self.shown = 0
+        self.total = 0
+        self._fh: TextIO | None = None
+        self._writer: Any = None
+        if rejects is not None:
+            try:
+                self._fh = rejects.open("w", newline="", encoding="utf-8")
+            except OSError as exc:
+                raise InputFileError(
+                    f"{rejects}: cannot write the rejected records: {exc.strerror or exc}"
+                ) from exc
+            self._writer = csv.writer(self._fh)
+            self._writer.writerow(["source", "line", "kept", "code", "reason"])
+
+    def __call__(self, problem: RowProblem) -> None:
+        self.total += 1
+        if self._writer is not None:
+            self._writer.writerow(
+                [problem.source, problem.line, problem.kept, problem.category, problem.reason]
+            )
+        if self.shown < SHOWN_PROBLEMS:
+            self.shown += 1
+            what = "note" if problem.kept else "skipped"
+            print(f"{what} {problem.where()}: {problem.reason}", file=sys.stderr)
+
+    def close(self) -> None:
+        if self.total > self.shown:
+            more = self.total - self.shown
+            where = "" if self._fh is None else f" (all are in {self._fh.name})"
+            print(f"... and {more} more bad record(s){where}", file=sys.stderr)
+        if self._fh is not None:
+            self._fh.close()

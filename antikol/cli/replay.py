@@ -10,20 +10,15 @@ replayed, rejected by reason; ``--rejects FILE`` writes every rejected record.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
-from antikol.cli.common import add_map_option, load_map, positive_float
+from antikol.cli.common import ProblemPrinter, add_map_option, load_map, positive_float
 from antikol.cli.fleet import add_fleet_options, run_fleet
-from antikol.errors import InputFileError, UsageError
-from antikol.ingest.replaylog import RowProblem
+from antikol.errors import UsageError
 
 __all__ = ["add_parser"]
-
-#: Bad records printed on stderr before the rest are only counted.
-SHOWN_PROBLEMS = 20
 
 
 def add_parser(sub: Any) -> None:
@@ -89,44 +84,6 @@ def add_parser(sub: Any) -> None:
     r.set_defaults(run=_replay)
 
 
-class _Problems:
-    """Prints the first bad records on stderr and writes all of them to --rejects."""
-
-    def __init__(self, rejects: Path | None) -> None:
-        self.shown = 0
-        self.total = 0
-        self._fh: TextIO | None = None
-        self._writer: Any = None
-        if rejects is not None:
-            try:
-                self._fh = rejects.open("w", newline="", encoding="utf-8")
-            except OSError as exc:
-                raise InputFileError(
-                    f"{rejects}: cannot write the rejected records: {exc.strerror or exc}"
-                ) from exc
-            self._writer = csv.writer(self._fh)
-            self._writer.writerow(["source", "line", "kept", "code", "reason"])
-
-    def __call__(self, problem: RowProblem) -> None:
-        self.total += 1
-        if self._writer is not None:
-            self._writer.writerow(
-                [problem.source, problem.line, problem.kept, problem.category, problem.reason]
-            )
-        if self.shown < SHOWN_PROBLEMS:
-            self.shown += 1
-            what = "note" if problem.kept else "skipped"
-            print(f"{what} {problem.where()}: {problem.reason}", file=sys.stderr)
-
-    def close(self) -> None:
-        if self.total > self.shown:
-            more = self.total - self.shown
-            where = "" if self._fh is None else f" (all are in {self._fh.name})"
-            print(f"... and {more} more bad record(s){where}", file=sys.stderr)
-        if self._fh is not None:
-            self._fh.close()
-
-
 def _replay(args: argparse.Namespace) -> int:
     from antikol.analysis.analyser import Analyser
     from antikol.evaluation.replay import EventWriter, StreamedLog, replay
@@ -143,7 +100,7 @@ def _replay(args: argparse.Namespace) -> int:
         raise UsageError("Parquet archives are replayed with --fleet DIR")
     args.log = args.log[0]
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
-    problems = _Problems(args.rejects)
+    problems = ProblemPrinter(args.rejects)
     log: ReplayLog | StreamedLog
     try:
         if fmt == "csv":

@@ -8,6 +8,8 @@
   sector rule compared with the track-aware analyser;
 * :mod:`~antikol.evaluation.positioning_accuracy` — track-selective positioning against
   the true track;
+* :mod:`~antikol.evaluation.consistency` — a trace's matched positions checked without
+  ground truth (course's way, connected windows, odometer): ``antikol match``;
 * :mod:`~antikol.evaluation.replay` — recorded logs replayed through the analyser;
 * :mod:`~antikol.evaluation.fleet` — an operator's archive replayed on a Dask cluster
   (``antikol replay --fleet``); Dask and pyarrow are imported only when it runs;
@@ -15,6 +17,12 @@
   optional extra), so it is not imported here: import ``antikol.evaluation.figures``.
 """
 
+from antikol.evaluation.consistency import (
+    MatchedFix,
+    TraceConsistency,
+    match_reports,
+    trace_consistency,
+)
 from antikol.evaluation.groundtruth import GroundTruth, Passage, analysis_times, ground_truth
 from antikol.evaluation.positioning_accuracy import (
     FixEvaluation,
@@ -52,6 +60,7 @@ __all__ = [
     "EventWriter",
     "FixEvaluation",
     "GroundTruth",
+    "MatchedFix",
     "MissedEpisode",
     "Passage",
     "PositioningScore",
@@ -60,6 +69,7 @@ __all__ = [
     "Scenario",
     "ScenarioUnavailable",
     "Score",
+    "TraceConsistency",
     "WrongWayScore",
     "analysis_times",
     "build_scenario",
@@ -68,10 +78,12 @@ __all__ = [
     "evaluate_fixes",
     "format_table",
     "ground_truth",
+    "match_reports",
     "positioning_accuracy",
     "replay",
     "run_analyser",
     "run_scenario",
     "score",
+    "trace_consistency",
     "wrong_way_positioning",
 ]

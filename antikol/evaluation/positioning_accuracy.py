@@ -13,9 +13,10 @@ truth (:class:`FixEvaluation`). :func:`positioning_accuracy` sums them up
   them on the right track (a calibrated positioner is right as often as it says);
 * **right way** — moving fixes placed on a track running the vehicle's way;
 * **disconnected 10-s windows** — windows in which two successive matched positions of a
-  vehicle are connected by no permitted route (``net.route_distance`` with
-  ``respect_direction=True``, within what the vehicle can run in between plus a margin,
-  and arriving in the estimated direction), allowing a small step back along the track;
+  vehicle are connected by no permitted route, within what the vehicle can run in between
+  plus a margin, arriving in the estimated direction; a small step back along the track is
+  allowed (:func:`~antikol.evaluation.consistency.disconnected_windows`, the check that
+  needs no truth);
 * along-track RMS error of the filtered and the raw position.
 
 :func:`wrong_way_positioning` measures what positioning makes of a vehicle that really
@@ -27,13 +28,13 @@ from __future__ import annotations
 import itertools
 import math
 from collections import defaultdict
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
 import numpy as np
 import shapely
 
+from antikol.evaluation.consistency import MOVING_MPS, disconnected_windows
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
@@ -54,11 +55,6 @@ __all__ = [
 
 #: Bin edges of the reliability table (probability of the estimate).
 RELIABILITY_EDGES: Final = (0.0, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0)
-_MOVING_MPS: Final = 1.0  # a vehicle this fast or faster is moving
-_WINDOW_S: Final = 10.0
-_MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
-_REACH_MARGIN_M: Final = 30.0
-_STEP_BACK_M: Final = 10.0  # a filtered position may step back this much along the track
 
 
 @dataclass(frozen=True, slots=True)
@@ -413,7 +409,7 @@ def _judge(
     s_ant = max(float(truth.distance_m[idx]) - spec.antenna_m, 0.0)
     te, to, td = spec.route.locate(min(s_ant, spec.route.length_m))
     tx, ty = float(truth.antenna_x_m[idx]), float(truth.antenna_y_m[idx])
-    moving = float(truth.speed_mps[idx]) >= _MOVING_MPS
+    moving = float(truth.speed_mps[idx]) >= MOVING_MPS
     matched = est.matched and est.edge_id is not None and est.offset_m is not None
     right_track = correct = right_way = False
     along = raw = math.nan
@@ -463,76 +459,6 @@ def _judge(
         "true_x": tx,
         "true_y": ty,
     }
-
-
-def disconnected_windows(
-    net: TrackMap, evaluations: Sequence[FixEvaluation], *, window_s: float = _WINDOW_S
-) -> tuple[int, int]:
-    """Count the windows of matched positions and those no permitted route connects.
-
-    Parameters
-    ----------
-    net : TrackMap
-    evaluations : sequence of FixEvaluation
-    window_s : float
-        Window length, s (windows are aligned to multiples of it).
-
-    Returns
-    -------
-    (int, int)
-        Windows with two or more matched positions of a vehicle, and those in which two
-        successive positions are connected by no permitted route within
-        ``30 m + 25 m/s × Δt`` arriving in the later estimate's direction (nor is the later
-        one up to 10 m behind the earlier on its track). Positions flagged wrong way are
-        connected over physical moves.
-    """
-    per: dict[tuple[str, int], list[FixEvaluation]] = defaultdict(list)
-    for ev in evaluations:
-        if ev.matched:
-            per[(ev.vehicle_id, math.floor(ev.t / window_s))].append(ev)
-    windows = broken = 0
-    for seq in per.values():
-        if len(seq) < 2:
-            continue
-        windows += 1
-        seq.sort(key=lambda e: e.t)
-        for p, q in itertools.pairwise(seq):
-            if not _connected(net, p, q):
-                broken += 1
-                break
-    return windows, broken
-
-
-def _connected(net: TrackMap, p: FixEvaluation, q: FixEvaluation) -> bool:
-    if p.edge_id is None or p.offset_m is None or p.direction is None:
-        raise RuntimeError("a matched evaluation without a track position")  # pragma: no cover
-    if q.edge_id is None or q.offset_m is None or q.direction is None:
-        raise RuntimeError("a matched evaluation without a track position")  # pragma: no cover
-    permitted = not (p.est_wrong_way or q.est_wrong_way)
-    reach = _REACH_MARGIN_M + _MAX_SPEED_MPS * max(q.t - p.t, 0.0)
-    fwd = net.route_distance(
-        p.edge_id,
-        p.offset_m,
-        p.direction,
-        q.edge_id,
-        q.offset_m,
-        cutoff_m=reach,
-        respect_direction=permitted,
-    )
-    if fwd is not None and fwd.arrival_direction == q.direction:
-        return True
-    if q.direction != p.direction and q.edge_id == p.edge_id:
-        return False
-    back = net.route_distance(
-        q.edge_id,
-        q.offset_m,
-        q.direction,
-        p.edge_id,
-        p.offset_m,
-        cutoff_m=_STEP_BACK_M,
-        respect_direction=permitted,
-    )
-    return back is not None and back.arrival_direction == p.direction
 
 
 def positioning_accuracy(

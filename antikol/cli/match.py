@@ -1,0 +1,252 @@
+"""``antikol match``: put every report of a log on the track map and check the result.
+
+Every report is positioned at its own time (:func:`antikol.evaluation.consistency.match_reports`)
+and written as one row of a positions CSV; the matched positions are then checked without
+ground truth (:func:`antikol.evaluation.consistency.trace_consistency`): moving fixes on a
+track running the reported course's way, 10-s windows that no permitted route connects,
+and, where the log has an odometer, the distance along the track against its increments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from collections import defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from antikol.cli.common import ProblemPrinter, add_map_option, load_map, positive_float
+from antikol.errors import InputFileError, UsageError
+
+__all__ = ["POSITION_CSV_COLUMNS", "add_parser"]
+
+#: Columns of the positions CSV: the report (lat/lon as reported), then its track position.
+POSITION_CSV_COLUMNS = (
+    "vehicle_id",
+    "t",
+    "lat",
+    "lon",
+    "speed_mps",
+    "course_deg",
+    "odometer_m",
+    "has_fix",
+    "status",
+    "edge_id",
+    "direction",
+    "offset_m",
+    "track_lat",
+    "track_lon",
+    "heading_deg",
+    "probability",
+    "sigma_m",
+    "wrong_way",
+    "dead_reckoned_s",
+)
+
+#: Vehicles listed one per line before only the totals are printed.
+_SHOWN_VEHICLES = 20
+
+
+def add_parser(sub: Any) -> None:
+    """Register the sub-command."""
+    m = sub.add_parser(
+        "match",
+        help="put every report of a log on the track map and check the matched positions",
+        description="Position every report of a log on a track map, write the positions "
+        "as CSV and check them without ground truth: moving fixes on a track running the "
+        "reported course's way, 10-s windows no permitted route connects, and the track "
+        "distance against the odometer where the log has one.",
+    )
+    m.add_argument(
+        "log",
+        type=Path,
+        help="a replay CSV, a directory of NMEA logs, an HSL HFP log (JSON lines or CSV) or "
+        "GTFS-realtime VehiclePositions (a feed file or a directory of them); gzip, bzip2 "
+        "and xz archives are read as they are",
+    )
+    m.add_argument(
+        "--format",
+        dest="log_format",
+        choices=("auto", "csv", "nmea", "hfp", "gtfs-rt"),
+        default="auto",
+        help="log format (default: recognised by name and content)",
+    )
+    add_map_option(m, default="default")
+    m.add_argument(
+        "-o",
+        "--positions",
+        type=Path,
+        default=Path("positions.csv"),
+        help="positions CSV to write, one row per report (default positions.csv)",
+    )
+    m.add_argument(
+        "--json", type=Path, default=None, metavar="FILE", help="also write every check as JSON"
+    )
+    m.add_argument(
+        "--cycle",
+        type=positive_float,
+        default=1.0,
+        metavar="S",
+        help="analysis period in seconds (default 1)",
+    )
+    m.add_argument(
+        "--odometer-tolerance",
+        type=positive_float,
+        default=10.0,
+        metavar="M",
+        help="largest track distance minus odometer increment that agrees, m (default 10)",
+    )
+    m.add_argument("--strict", action="store_true", help="stop at the first bad record")
+    m.add_argument(
+        "--rejects",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="write every rejected record (source, line, reason) to this CSV",
+    )
+    m.set_defaults(run=_match)
+
+
+def _match(args: argparse.Namespace) -> int:
+    from antikol.evaluation.consistency import TraceConsistency, match_reports, trace_consistency
+    from antikol.ingest.feeds import read_log
+
+    if args.map is None or args.map == "none":
+        raise UsageError("matching needs a track map: --map FILE or --map default")
+    for out in (args.positions, args.json):
+        if out is not None and not out.parent.is_dir():
+            raise InputFileError(f"{out}: cannot write: no directory {out.parent}")
+    problems = ProblemPrinter(args.rejects)
+    try:
+        log = read_log(args.log, log_format=args.log_format, strict=args.strict)
+        for problem in log.problems:
+            problems(problem)
+    finally:
+        problems.close()
+    for reason, n in sorted(log.ignored.items()):
+        print(f"ignored {n} record(s): {reason}", file=sys.stderr)
+    if not log.reports:
+        raise UsageError(f"{args.log}: no usable report in the log")
+    net = load_map(args.map)
+    fixes = match_reports(net, log.reports, cycle_s=args.cycle)
+    per_vehicle: dict[str, list[Any]] = defaultdict(list)
+    for f in fixes:
+        per_vehicle[f.vehicle_id].append(f)
+    checks = {
+        vid: trace_consistency(net, seq, odometer_tolerance_m=args.odometer_tolerance)
+        for vid, seq in sorted(per_vehicle.items())
+    }
+    total = TraceConsistency.pooled(list(checks.values()))
+    rows = _write_positions(args.positions, fixes)
+    rejected = log.rejected
+    print(
+        f"matched {total.reports:,} reports of {total.vehicles:,} vehicle(s) "
+        f"({rejected:,} record(s) rejected): confident {total.confident:,}, "
+        f"ambiguous {total.ambiguous:,}, lost {total.lost:,}, unmatched {total.unmatched:,}"
+    )
+    for line in _summary(total):
+        print(line)
+    if 1 < len(checks) <= _SHOWN_VEHICLES:
+        _print_vehicles(checks)
+    print(f"wrote {rows:,} positions to {args.positions}")
+    if args.json is not None:
+        document = {
+            "log": str(args.log),
+            "map": str(args.map),
+            "records_rejected": rejected,
+            "total": total.as_dict(),
+            "vehicles": {vid: c.as_dict() for vid, c in checks.items()},
+        }
+        _write_text(args.json, json.dumps(document, indent=2, allow_nan=False) + "\n")
+        print(f"wrote the checks to {args.json}")
+    return 0
+
+
+def _percent(share: float) -> str:
+    return "n/a" if math.isnan(share) else f"{100.0 * share:.2f} %"
+
+
+def _summary(c: Any) -> list[str]:
+    lines = [
+        f"moving fixes on a track running the reported course's way: "
+        f"{_percent(c.way_agrees_share)} ({c.moving_way_agrees:,} of {c.moving_fixes:,}; "
+        f"{c.moving_fixes - c.moving_matched:,} not matched, "
+        f"{c.moving_wrong_way:,} matched as running wrong way)",
+        f"10-s windows no permitted route connects: {_percent(c.disconnected_share)} "
+        f"({c.disconnected_windows:,} of {c.windows:,})",
+    ]
+    if c.odometer_pairs:
+        lines.append(
+            f"odometer: {_percent(c.odometer_agrees_share)} of {c.odometer_pairs:,} pairs of "
+            f"reports with a track distance within {c.odometer_tolerance_m:g} m of its "
+            f"increment (RMS {c.odometer_rms_m:.2f} m; {c.odometer_unreachable:,} out of reach)"
+        )
+    else:
+        lines.append("odometer: none in the log")
+    return lines
+
+
+def _print_vehicles(checks: dict[str, Any]) -> None:
+    print(f"{'vehicle':<14} {'reports':>8} {'way agrees':>11} {'disconnected':>13} {'odometer':>9}")
+    for vid, c in checks.items():
+        print(
+            f"{vid:<14} {c.reports:>8,} {_percent(c.way_agrees_share):>11} "
+            f"{c.disconnected_windows:>6} of {c.windows:<4} {_percent(c.odometer_agrees_share):>9}"
+        )
+
+
+def _cell(value: Any, decimals: int | None = None) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if decimals is not None:
+        return f"{value:.{decimals}f}"
+    return str(value)
+
+
+def _write_positions(path: Path, fixes: Sequence[Any]) -> int:
+    try:
+        fh = path.open("w", newline="", encoding="utf-8")
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot write the positions: {exc.strerror or exc}") from exc
+    with fh:
+        w = csv.writer(fh)
+        w.writerow(POSITION_CSV_COLUMNS)
+        for f in fixes:
+            r, p = f.report, f.position
+            w.writerow(
+                [
+                    r.vehicle_id,
+                    _cell(r.t, 3),
+                    _cell(r.lat, 7),
+                    _cell(r.lon, 7),
+                    _cell(r.speed_mps, 2),
+                    _cell(r.course_deg, 1),
+                    _cell(r.odometer_m, 1),
+                    _cell(f.has_fix),
+                    p.status,
+                    _cell(p.edge_id),
+                    _cell(p.direction),
+                    _cell(p.offset_m, 2),
+                    _cell(p.lat if f.matched else None, 7),
+                    _cell(p.lon if f.matched else None, 7),
+                    _cell(p.heading_deg, 1),
+                    _cell(p.probability, 3),
+                    _cell(p.sigma_m, 2),
+                    _cell(p.wrong_way),
+                    _cell(p.dead_reckoned_s, 1),
+                ]
+            )
+    return len(fixes)
+
+
+def _write_text(path: Path, text: str) -> None:
+    try:
+        path.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot write: {exc.strerror or exc}") from exc

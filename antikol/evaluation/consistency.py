@@ -1,0 +1,476 @@
+"""Positioning checked without ground truth: how consistent a trace's matched positions are.
+
+A real trace (an operator's archive, an on-board log) has no true track to judge the
+matcher against, but its matched positions can still be checked against what the trace
+itself says and against the map:
+
+* **way** — a moving fix should lie on a track that allows the direction the vehicle is
+  matched in, and that direction should agree with the reported course over ground
+  (within 90°: a fix on the other direction's track of a double track fails this);
+* **connected windows** — in every 10-s window, each matched position must be reachable
+  from the one before over permitted moves, within what a tram can run in between (the
+  rule :func:`~antikol.evaluation.positioning_accuracy.positioning_accuracy` scores against
+  the truth, :func:`disconnected_windows`);
+* **odometer** — where the reports carry ``odometer_m``, the distance along the track
+  between successive matched positions should equal the odometer's increment.
+
+:func:`match_reports` runs a :class:`~antikol.positioning.matcher.Positioner` over a log's
+reports (one position per report, at the report's time) and :func:`trace_consistency`
+sums the checks up (:class:`TraceConsistency`). ``antikol match`` does both for a log
+file. These checks cannot see every error — a vehicle matched consistently onto a parallel
+track that runs its way passes them all — so they bound the failures from below.
+
+>>> from trackmap.synthetic import SyntheticNetwork
+>>> from antikol.report import VehicleReport
+>>> board = SyntheticNetwork()
+>>> board.track([(0.0, 0.0), (1000.0, 0.0)], oneway="yes")  # one eastbound track
+1
+>>> net = board.build()
+>>> def fix(t):
+...     lon, lat = board.lonlat(100.0 + 10.0 * t, 1.5)  # 1.5 m beside the track
+...     return VehicleReport("T1", t, lat, lon, speed_mps=10.0, course_deg=90.0,
+...                          odometer_m=10.0 * t)
+>>> check = trace_consistency(net, match_reports(net, [fix(float(t)) for t in range(30)]))
+>>> check.reports, check.moving_way_agrees == check.moving_fixes, check.disconnected_windows
+(30, True, 0)
+>>> check.odometer_agrees == check.odometer_pairs == 29
+True
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any, Final, Protocol
+
+import numpy as np
+
+from antikol.evaluation.replay import cycles
+from antikol.positioning.config import PositioningConfig
+from antikol.positioning.matcher import Positioner
+from antikol.positioning.records import TrackPosition
+from antikol.report import VehicleReport
+from trackmap import TrackMap
+
+__all__ = [
+    "MOVING_MPS",
+    "MatchedFix",
+    "Placed",
+    "TraceConsistency",
+    "disconnected_windows",
+    "match_reports",
+    "trace_consistency",
+]
+
+#: A vehicle this fast or faster is moving, m/s (its course over ground is meaningful).
+MOVING_MPS: Final = 1.0
+_WINDOW_S: Final = 10.0
+_MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
+_REACH_MARGIN_M: Final = 30.0
+_STEP_BACK_M: Final = 10.0  # a filtered position may step back this much along the track
+_WAY_TOLERANCE_DEG: Final = 90.0
+
+
+class Placed(Protocol):
+    """A matched position of a vehicle at a time, as the window check reads it."""
+
+    @property
+    def vehicle_id(self) -> str: ...
+    @property
+    def t(self) -> float: ...
+    @property
+    def matched(self) -> bool: ...
+    @property
+    def edge_id(self) -> int | None: ...
+    @property
+    def offset_m(self) -> float | None: ...
+    @property
+    def direction(self) -> int | None: ...
+    @property
+    def est_wrong_way(self) -> bool: ...
+
+
+@dataclass(frozen=True, slots=True)
+class MatchedFix:
+    """A report and the track position positioning gave right after it.
+
+    Attributes
+    ----------
+    report : VehicleReport
+    position : TrackPosition
+    """
+
+    report: VehicleReport
+    position: TrackPosition
+
+    @property
+    def vehicle_id(self) -> str:
+        return self.report.vehicle_id
+
+    @property
+    def t(self) -> float:
+        """Time of the report, s."""
+        return self.report.t
+
+    @property
+    def matched(self) -> bool:
+        """The position is on a track (confident or ambiguous)."""
+        p = self.position
+        return p.matched and p.edge_id is not None and p.offset_m is not None
+
+    @property
+    def edge_id(self) -> int | None:
+        return self.position.edge_id
+
+    @property
+    def offset_m(self) -> float | None:
+        return self.position.offset_m
+
+    @property
+    def direction(self) -> int | None:
+        return self.position.direction
+
+    @property
+    def est_wrong_way(self) -> bool:
+        """Positioning places the vehicle against the track's permitted direction."""
+        return self.position.wrong_way
+
+    @property
+    def has_fix(self) -> bool:
+        """The report carries a position fix (``fix_quality`` is not 0)."""
+        return self.report.fix_quality != 0
+
+
+def match_reports(
+    net: TrackMap,
+    reports: Iterable[VehicleReport],
+    *,
+    config: PositioningConfig | None = None,
+    cycle_s: float = 1.0,
+) -> list[MatchedFix]:
+    """Position every report of a log, in time order.
+
+    The reports go to one :class:`~antikol.positioning.matcher.Positioner` one analysis
+    cycle at a time (:func:`~antikol.evaluation.replay.cycles`); a vehicle with several
+    reports in one cycle has them fused one after the other, so every report gets the
+    position at its own time.
+
+    Parameters
+    ----------
+    net : TrackMap
+    reports : iterable of VehicleReport
+        Any order (they are sorted by time, stably).
+    config : PositioningConfig, optional
+    cycle_s : float
+        Analysis period, s.
+
+    Returns
+    -------
+    list of MatchedFix
+        One per report, in time order.
+    """
+    pos = Positioner(net, config)
+    out: list[MatchedFix] = []
+    for _, batch in cycles(reports, cycle_s):
+        for one_each in _passes(batch):
+            out.extend(
+                MatchedFix(r, p) for r, p in zip(one_each, pos.update_many(one_each), strict=True)
+            )
+    return out
+
+
+def _passes(batch: list[VehicleReport]) -> list[list[VehicleReport]]:
+    """Split a cycle's reports into runs with at most one report per vehicle, in order."""
+    passes: list[list[VehicleReport]] = []
+    count: dict[str, int] = defaultdict(int)
+    for r in batch:
+        k = count[r.vehicle_id]
+        count[r.vehicle_id] += 1
+        if k == len(passes):
+            passes.append([])
+        passes[k].append(r)
+    return passes
+
+
+@dataclass(frozen=True, slots=True)
+class TraceConsistency:
+    """How consistent a trace's matched positions are (:func:`trace_consistency`).
+
+    Attributes
+    ----------
+    vehicles, reports : int
+    with_fix : int
+        Reports carrying a position fix.
+    confident, ambiguous, lost, unmatched : int
+        Positions by status.
+    moving_fixes : int
+        Reports with a fix and a reported speed of at least :data:`MOVING_MPS`.
+    moving_matched : int
+        Of them, matched onto a track.
+    moving_way_agrees : int
+        Of them, matched on a track whose permitted direction is the matched one, with the
+        matched heading within 90° of the reported course.
+    moving_wrong_way : int
+        Moving fixes positioning itself reports as running against the permitted direction.
+    windows, disconnected_windows : int
+        10-s windows with two or more matched positions of a vehicle, and those in which
+        two successive positions are connected by no permitted route
+        (:func:`disconnected_windows`).
+    odometer_pairs : int
+        Successive matched reports of a vehicle (at most 10 s apart) that both carry an
+        odometer reading.
+    odometer_agrees : int
+        Of them, those whose distance along the track equals the odometer's increment
+        within ``odometer_tolerance_m``.
+    odometer_unreachable : int
+        Of them, those whose later position cannot be reached from the earlier within the
+        odometer's increment plus the tolerance and 30 m.
+    odometer_rms_m : float
+        RMS of (distance along the track − odometer increment) over the reachable pairs, m
+        (NaN when there are none).
+    odometer_tolerance_m : float
+        The tolerance used, m.
+    """
+
+    vehicles: int
+    reports: int
+    with_fix: int
+    confident: int
+    ambiguous: int
+    lost: int
+    unmatched: int
+    moving_fixes: int
+    moving_matched: int
+    moving_way_agrees: int
+    moving_wrong_way: int
+    windows: int
+    disconnected_windows: int
+    odometer_pairs: int
+    odometer_agrees: int
+    odometer_unreachable: int
+    odometer_rms_m: float
+    odometer_tolerance_m: float
+
+    @property
+    def way_agrees_share(self) -> float:
+        """Share of moving fixes on a track running the reported course's way."""
+        return self.moving_way_agrees / self.moving_fixes if self.moving_fixes else math.nan
+
+    @property
+    def disconnected_share(self) -> float:
+        """Share of the windows no permitted route connects."""
+        return self.disconnected_windows / self.windows if self.windows else math.nan
+
+    @property
+    def odometer_agrees_share(self) -> float:
+        """Share of the odometer pairs whose track distance agrees with the odometer."""
+        return self.odometer_agrees / self.odometer_pairs if self.odometer_pairs else math.nan
+
+    @classmethod
+    def pooled(cls, parts: Sequence[TraceConsistency]) -> TraceConsistency:
+        """The checks of the traces of different vehicles taken together.
+
+        Raises
+        ------
+        ValueError
+            No parts, or parts checked with different odometer tolerances.
+        """
+        if not parts:
+            raise ValueError("nothing to pool")
+        tolerances = {p.odometer_tolerance_m for p in parts}
+        if len(tolerances) != 1:
+            raise ValueError(f"parts checked with different odometer tolerances {tolerances}")
+        counts = {
+            name: sum(getattr(p, name) for p in parts)
+            for name in cls.__slots__
+            if name not in ("odometer_rms_m", "odometer_tolerance_m")
+        }
+        reached = [(p.odometer_pairs - p.odometer_unreachable, p.odometer_rms_m) for p in parts]
+        n = sum(k for k, _ in reached)
+        squares = sum(k * rms * rms for k, rms in reached if k)
+        return cls(
+            **counts,
+            odometer_rms_m=math.sqrt(squares / n) if n else math.nan,
+            odometer_tolerance_m=tolerances.pop(),
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """Every count and share, JSON-ready (NaN as None)."""
+        fields = {name: getattr(self, name) for name in self.__slots__}
+        fields.update(
+            way_agrees_share=self.way_agrees_share,
+            disconnected_share=self.disconnected_share,
+            odometer_agrees_share=self.odometer_agrees_share,
+        )
+        return {
+            k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in fields.items()
+        }
+
+
+def trace_consistency(
+    net: TrackMap,
+    fixes: Sequence[MatchedFix],
+    *,
+    window_s: float = _WINDOW_S,
+    odometer_tolerance_m: float = 10.0,
+) -> TraceConsistency:
+    """Check a trace's matched positions against its own course, odometer and the map.
+
+    Parameters
+    ----------
+    net : TrackMap
+        The map the positions are on.
+    fixes : sequence of MatchedFix
+        As :func:`match_reports` returns them.
+    window_s : float
+        Window of the connectivity check, s; also the longest gap between the two reports
+        of an odometer pair.
+    odometer_tolerance_m : float
+        Largest difference between the distance along the track and the odometer's
+        increment that still agrees, m.
+
+    Returns
+    -------
+    TraceConsistency
+    """
+    status: dict[str, int] = defaultdict(int)
+    moving = moving_matched = way_agrees = wrong_way = 0
+    for f in fixes:
+        status[f.position.status] += 1
+        if not (f.has_fix and f.report.speed_mps >= MOVING_MPS):
+            continue
+        moving += 1
+        wrong_way += f.est_wrong_way
+        if f.matched:
+            moving_matched += 1
+            way_agrees += _runs_reported_way(net, f)
+    windows, broken = disconnected_windows(net, fixes, window_s=window_s)
+    residuals, unreachable = _odometer_residuals(net, fixes, window_s, odometer_tolerance_m)
+    pairs = len(residuals) + unreachable
+    return TraceConsistency(
+        vehicles=len({f.vehicle_id for f in fixes}),
+        reports=len(fixes),
+        with_fix=sum(f.has_fix for f in fixes),
+        confident=status["confident"],
+        ambiguous=status["ambiguous"],
+        lost=status["lost"],
+        unmatched=status["unmatched"],
+        moving_fixes=moving,
+        moving_matched=moving_matched,
+        moving_way_agrees=way_agrees,
+        moving_wrong_way=wrong_way,
+        windows=windows,
+        disconnected_windows=broken,
+        odometer_pairs=pairs,
+        odometer_agrees=int(np.count_nonzero(np.abs(residuals) <= odometer_tolerance_m)),
+        odometer_unreachable=unreachable,
+        odometer_rms_m=float(np.sqrt(np.mean(np.square(residuals)))) if residuals else math.nan,
+        odometer_tolerance_m=odometer_tolerance_m,
+    )
+
+
+def _runs_reported_way(net: TrackMap, f: MatchedFix) -> bool:
+    edge_id, offset_m, direction = _place(f)
+    if not net.edges[edge_id].allows(direction):
+        return False
+    heading = net.heading_at(edge_id, offset_m, direction)
+    turn = abs((heading - f.report.course_deg + 180.0) % 360.0 - 180.0)
+    return turn < _WAY_TOLERANCE_DEG
+
+
+def _odometer_residuals(
+    net: TrackMap, fixes: Sequence[MatchedFix], window_s: float, tolerance_m: float
+) -> tuple[list[float], int]:
+    """(track distance − odometer increment) of successive matched reports of a vehicle
+    that both carry an odometer reading, and the count of those out of reach."""
+    per: dict[str, list[MatchedFix]] = defaultdict(list)
+    for f in fixes:
+        if f.matched and f.report.odometer_m is not None:
+            per[f.vehicle_id].append(f)
+    residuals: list[float] = []
+    unreachable = 0
+    for seq in per.values():
+        seq.sort(key=lambda f: f.t)
+        for p, q in itertools.pairwise(seq):
+            if not 0.0 < q.t - p.t <= window_s:
+                continue
+            if q.report.odometer_m is None or p.report.odometer_m is None:
+                continue  # pragma: no cover - both were kept for their readings
+            travelled = q.report.odometer_m - p.report.odometer_m
+            if travelled < 0.0:
+                continue  # an odometer reset: nothing to compare
+            along = _signed_track_distance(net, p, q, travelled + tolerance_m + _REACH_MARGIN_M)
+            if along is None:
+                unreachable += 1
+            else:
+                residuals.append(along - travelled)
+    return residuals, unreachable
+
+
+def _place(p: Placed) -> tuple[int, float, int]:
+    if p.edge_id is None or p.offset_m is None or p.direction is None:
+        raise RuntimeError("a matched position without a track position")  # pragma: no cover
+    return p.edge_id, p.offset_m, p.direction
+
+
+def _signed_track_distance(net: TrackMap, p: Placed, q: Placed, cutoff_m: float) -> float | None:
+    """Distance along the track from ``p`` to ``q`` over moves ``p`` may make (negative: ``q``
+    up to 10 m behind ``p``), or None when ``q`` is out of reach."""
+    permitted = not (p.est_wrong_way or q.est_wrong_way)
+    (pe, po, pd), (qe, qo, qd) = _place(p), _place(q)
+    fwd = net.route_distance(pe, po, pd, qe, qo, cutoff_m=cutoff_m, respect_direction=permitted)
+    if fwd is not None and fwd.arrival_direction == qd:
+        return float(fwd.distance_m)
+    if qd != pd and qe == pe:
+        return None
+    back = net.route_distance(
+        qe, qo, qd, pe, po, cutoff_m=_STEP_BACK_M, respect_direction=permitted
+    )
+    if back is not None and back.arrival_direction == pd:
+        return -float(back.distance_m)
+    return None
+
+
+def disconnected_windows(
+    net: TrackMap, placed: Iterable[Placed], *, window_s: float = _WINDOW_S
+) -> tuple[int, int]:
+    """Count the windows of matched positions and those no permitted route connects.
+
+    Parameters
+    ----------
+    net : TrackMap
+    placed : iterable of Placed
+        Matched positions of any vehicles (unmatched ones are skipped), e.g.
+        :class:`MatchedFix` or :class:`~antikol.evaluation.positioning_accuracy.FixEvaluation`.
+    window_s : float
+        Window length, s (windows are aligned to multiples of it).
+
+    Returns
+    -------
+    (int, int)
+        Windows with two or more matched positions of a vehicle, and those in which two
+        successive positions are connected by no permitted route within
+        ``30 m + 25 m/s × Δt`` arriving in the later position's direction (nor is the later
+        one up to 10 m behind the earlier on its track). Positions flagged wrong way are
+        connected over physical moves.
+    """
+    per: dict[tuple[str, int], list[Placed]] = defaultdict(list)
+    for ev in placed:
+        if ev.matched:
+            per[(ev.vehicle_id, math.floor(ev.t / window_s))].append(ev)
+    windows = broken = 0
+    for seq in per.values():
+        if len(seq) < 2:
+            continue
+        windows += 1
+        seq.sort(key=lambda e: e.t)
+        for p, q in itertools.pairwise(seq):
+            reach = _REACH_MARGIN_M + _MAX_SPEED_MPS * max(q.t - p.t, 0.0)
+            if _signed_track_distance(net, p, q, reach) is None:
+                broken += 1
+                break
+    return windows, broken
