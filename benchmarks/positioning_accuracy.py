@@ -38,7 +38,8 @@ from antikol.positioning import PositioningConfig
 from antikol.sim import GpsModel, Simulator, fleet
 
 
-def _models() -> dict[str, GpsModel]:
+def gps_models() -> dict[str, GpsModel]:
+    """The receivers of the positioning benchmarks, by name (see the module)."""
     return {
         "white": GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10),
         "urban": GpsModel.urban(),
@@ -79,7 +80,7 @@ def main() -> None:
     ap.add_argument("--trams", type=int, default=12)
     ap.add_argument("--minutes", type=float, default=15.0)
     ap.add_argument(
-        "--gps", nargs="+", choices=sorted(_models()), default=["white", "urban", "feed"]
+        "--gps", nargs="+", choices=sorted(gps_models()), default=["white", "urban", "feed"]
     )
     ap.add_argument(
         "--set",
@@ -100,7 +101,7 @@ def main() -> None:
         "| along-track RMS error (raw fix) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    models = _models()
+    models = gps_models()
     for name in args.gps:
         gps = models[name]
         for seed in args.seeds:

@@ -21,19 +21,12 @@ from __future__ import annotations
 
 import argparse
 
+from positioning_accuracy import gps_models  # the same receivers (benchmarks/)
+
 import trackmap
 from antikol.evaluation.consistency import disconnected_windows, match_reports, trace_consistency
 from antikol.evaluation.positioning_accuracy import evaluate_fixes
-from antikol.sim import GpsModel, Simulator, fleet
-
-
-def _models() -> dict[str, GpsModel]:
-    return {
-        "white": GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10),
-        "urban": GpsModel.urban(),
-        "feed": GpsModel.urban(fix_quality_field=False),
-        "late": GpsModel.urban(latency_s=1.0),
-    }
+from antikol.sim import Simulator, fleet
 
 
 def main() -> None:
@@ -41,7 +34,7 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, nargs="+", default=[4, 5, 6])
     ap.add_argument("--trams", type=int, default=12)
     ap.add_argument("--minutes", type=float, default=10.0)
-    ap.add_argument("--gps", nargs="+", choices=sorted(_models()), default=["urban", "feed"])
+    ap.add_argument("--gps", nargs="+", choices=sorted(gps_models()), default=["urban", "feed"])
     args = ap.parse_args()
     net = trackmap.load_default()
     print(
@@ -51,7 +44,7 @@ def main() -> None:
         "| odometer disagrees (no truth) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    models = _models()
+    models = gps_models()
     for name in args.gps:
         for seed in args.seeds:
             specs = fleet(net, args.trams, seed)
