@@ -199,17 +199,9 @@ def _print_vehicles(checks: dict[str, Any]) -> None:
         )
 
 
-def _cell(value: Any, decimals: int | None = None) -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return ""
-    if isinstance(value, bool):
-        return "1" if value else "0"
-    if decimals is not None:
-        return f"{value:.{decimals}f}"
-    return str(value)
-
-
 def _write_positions(path: Path, fixes: Sequence[Any]) -> int:
+    from antikol.evaluation.replay import csv_cell as _cell
+
     try:
         fh = path.open("w", newline="", encoding="utf-8")
     except OSError as exc:

@@ -29,6 +29,7 @@ __all__ = [
     "EventWriter",
     "ReplaySummary",
     "StreamedLog",
+    "csv_cell",
     "cycles",
     "event_values",
     "replay",
@@ -252,9 +253,13 @@ def replay(
 _CSV_DECIMALS = {"t": 3, "distance_m": 2, "closing_speed_mps": 2, "ttc_s": 2, "probability": 3}
 
 
-def _csv_cell(value: Any, decimals: int | None = None) -> str:
+def csv_cell(value: Any, decimals: int | None = None) -> str:
+    """A value as a CSV cell: empty for None, ``1``/``0`` for a bool, a number with
+    ``decimals`` decimals when given, else ``str(value)``."""
     if value is None:
         return ""
+    if isinstance(value, bool):
+        return "1" if value else "0"
     if decimals is not None:
         return f"{value:.{decimals}f}"
     return str(value)
@@ -278,7 +283,7 @@ class EventWriter:
     def __call__(self, a: Assessment) -> None:
         for th in a.threats:
             self._w.writerow(
-                [_csv_cell(v, _CSV_DECIMALS.get(k)) for k, v in event_values(a, th).items()]
+                [csv_cell(v, _CSV_DECIMALS.get(k)) for k, v in event_values(a, th).items()]
             )
             self.rows += 1
 
