@@ -76,11 +76,13 @@ class PositioningConfig:
         wrong way) nor, while the vehicle moves, against its reported course: those need a
         move the map allows or a fresh start.
     transition_beta_m : float
-        Scale of the transition likelihood, m (plus 10 % of the distance travelled; a tenth
-        of that with an odometer).
+        Scale of the transition likelihood, m (plus 10 % of the distance travelled; 2 %
+        with an odometer: the move between two fixes' places carries their errors along
+        the track, which an odometer does not remove).
     implausible_move_nats : float
         A fix that every hypothesis reaches only by a move costing more than this (the
-        along-track mismatch over the transition scale, e.g. 50 m with an odometer) is an
+        along-track mismatch over the transition scale, with an odometer over 30 % of it:
+        e.g. 50 m) is an
         outlier — a far multipath fix near another track — and is rejected like a fix with
         no track within the search radius: the vehicle keeps its hypotheses and is
         dead-reckoned, until ``max_rejections_in_row`` such fixes in a row restart it.

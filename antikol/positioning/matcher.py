@@ -446,7 +446,18 @@ class Positioner:
             return find_candidates(self.net, self._loops, x, y, radius)
 
         scored = score_fixes(
-            self._f, self.reach, self.config, find, reports, rows, t, speed, odo, xs, ys
+            self._f,
+            self.reach,
+            self.config,
+            find,
+            self.net.headings_at,
+            reports,
+            rows,
+            t,
+            speed,
+            odo,
+            xs,
+            ys,
         )
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected

@@ -46,6 +46,11 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 _NEG_INF = -math.inf
+#: A hypothesis' place further than this from its fix's projection along the track has
+#: the course compared with the track heading there, m.
+PLACE_MOVE_M = 1.0
+#: ... unless further than this: a lag not yet learnt (a fresh lineage), m.
+MAX_PLACE_MOVE_M = 50.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,6 +96,7 @@ def score_fixes(
     reach: ReachTable,
     config: PositioningConfig,
     find: Callable[[FloatArray, FloatArray, FloatArray], Candidates],
+    headings: Callable[[IntArray, FloatArray, IntArray], FloatArray],
     reports: list[VehicleReport],
     rows: IntArray,
     t: FloatArray,
@@ -109,6 +115,9 @@ def score_fixes(
     config : PositioningConfig
     find : callable
         ``find(x, y, radius)``: the candidate places of fixes in the local frame (m).
+    headings : callable
+        ``headings(edge_id, offset_m, direction)``: true headings of travel (degrees) at
+        track places (:meth:`trackmap.TrackMap.headings_at`).
     reports : list of VehicleReport
     rows : ndarray of int
         Each report's row in ``fleet``.
@@ -168,13 +177,8 @@ def score_fixes(
     course_sigma = np.hypot(c.course_sigma_deg, c.course_noise_deg_mps / np.maximum(speed, 0.1))
     track_dir = heading + np.where(direction == 1, 0.0, 180.0)
     diff = (course[cv] - track_dir + 180.0) % 360.0 - 180.0
-    gauss = np.exp(-0.5 * (diff / course_sigma[cv]) ** 2) / (
-        course_sigma[cv] * math.sqrt(2.0 * math.pi)
-    )
     course_ll = np.where(
-        use_course[cv],
-        np.log((1.0 - c.course_outlier_weight) * gauss + c.course_outlier_weight / 360.0),
-        0.0,
+        use_course[cv], _course_ll(diff, course_sigma[cv], c.course_outlier_weight), 0.0
     )
     h = np.radians(heading)
     nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
@@ -207,17 +211,27 @@ def score_fixes(
         expected_m=exp_m,
         came_from=fleet.hv[pr, pk].astype(np.int64),
     )
+    # the move between two candidate places is the distance run plus the difference of
+    # the two fixes' errors along the track, which the fix-error filter scores (the lag):
+    # an odometer makes the first part exact, not the second, so it narrows the scale
+    # only by the speeds' share of it; the outlier gate keeps the odometer's own scale
+    # (a fix 50 m off along the track is no move a good odometer allows)
     beta = np.where(
         has_odo,
-        0.3 * c.transition_beta_m + 0.02 * travelled,
+        c.transition_beta_m + 0.02 * travelled,
         c.transition_beta_m + 0.1 * travelled,
     )[cv][pc]
+    gate_beta = np.where(
+        has_odo[cv][pc], 0.3 * c.transition_beta_m + 0.02 * travelled[cv][pc], beta
+    )
     move_cost = np.abs(dist - exp_m) / beta
+    gate_cost = np.abs(dist - exp_m) / gate_beta
     # a standing vehicle may change direction (bidirectional trams at termini)
     reversal = ((pss >> 1) == (p_cs >> 1)) & ((pss & 1) != (p_cs & 1))
     rev_ok = reversal & (exp_m < 1.0)
     rev_dist = np.abs(co[pc] - po)
     move_cost = np.where(rev_ok, rev_dist / beta, move_cost)
+    gate_cost = np.where(rev_ok, rev_dist / gate_beta, gate_cost)
     # at a standstill the candidates move with the fix's own error: their moves are
     # evidence of the fix (weighted as its emission), not of the vehicle
     trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost * move_weight[cv[pc]]
@@ -242,17 +256,25 @@ def score_fixes(
         prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv]
     )
     lat_ll = _mixture_ll(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight, floor[pc])
+    # the course is the heading where the hypothesis puts the vehicle, not where the fix
+    # projects: in a tight curve a fix metres off along the track projects where the track
+    # turns another way, and the hypothesis that knows its place should not pay for that
+    pair_course_ll = _placed_course_ll(
+        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad,
+        course[pcv],
+        course_sigma[pcv], use_course[pcv], c.course_outlier_weight, course_ll[pc],
+    )  # fmt: skip
     along_ll = _mixture_ll(
         along_i.residual_m, along_i.variance_m2, c.outlier_weight, floor[pc]
     ) - _mixture_ll(0.0, noise_var[pc] + bias_sigma[pcv] ** 2, c.outlier_weight, floor[pc])
     along_ll = np.where(rev_ok, 0.0, along_ll)
-    emit = (lat_ll + along_ll + static_ll[pc]) * weight[pcv]
+    emit = (lat_ll + along_ll + static_ll[pc] - course_ll[pc] + pair_course_ll) * weight[pcv]
     # laid out (candidate, slot) for the reductions, every other slot at -inf: the sums
     # run over the k slots in the same order whatever the number of hypotheses
     score = np.full(valid.shape, _NEG_INF)
     score[pc, pk] = fleet.hp[pr, pk] + trans + emit
     cost = np.full(valid.shape, np.inf)
-    cost[pc, pk] = move_cost
+    cost[pc, pk] = gate_cost
     pair_of = np.full(valid.shape, len(pc))  # the pair at each (candidate, slot); none
     pair_of[pc, pk] = np.arange(len(pc))
     best = np.argmax(score, axis=1)
@@ -317,7 +339,18 @@ def score_fixes(
     # step, the hypothesis' probability included) is an outlier as well
     top_lp = np.full(n, _NEG_INF)
     np.maximum.at(top_lp, cv, new_lp)
-    poor = ~fresh & ~unmatched & ~stuck & (top_lp < -c.outlier_fix_nats)
+    # (judged with the best parent's move at the outlier gate's scale)
+    gate_pair = pair_of[ar, best]
+    stricter = np.zeros(len(cs))
+    if len(pc):
+        with np.errstate(invalid="ignore"):  # (no move at all: inf - inf)
+            extra = (gate_cost - move_cost) * move_weight[pcv]
+        extra = np.where(np.isfinite(extra), extra, 0.0)
+        stricter = np.where(gate_pair < len(pc), extra[np.minimum(gate_pair, len(pc) - 1)], 0.0)
+    strict_lp = np.where(fresh[cv] | use0, new_lp, new_lp - stricter)
+    top_strict = np.full(n, _NEG_INF)
+    np.maximum.at(top_strict, cv, strict_lp)
+    poor = ~fresh & ~unmatched & ~stuck & (top_strict < -c.outlier_fix_nats)
     if poor.any():
         stats["outlier_fix"] += int(np.count_nonzero(poor))
         rejected = rejected + (poor & ~repeat)
@@ -390,6 +423,43 @@ def _mixture_ll(resid: Any, var: Any, outlier_weight: float, floor: Any) -> Any:
         / math.sqrt(2.0 * math.pi)
         + floor
     )
+
+
+def _course_ll(diff_deg: Any, sigma_deg: Any, outlier_weight: float) -> Any:
+    """Log-density of a course ``diff_deg`` off the track heading (degrees): a Gaussian of
+    ``sigma_deg`` with a floor uniform over the circle (a course gone astray)."""
+    gauss = np.exp(-0.5 * (diff_deg / sigma_deg) ** 2) / (sigma_deg * math.sqrt(2.0 * math.pi))
+    return np.log((1.0 - outlier_weight) * gauss + outlier_weight / 360.0)
+
+
+def _placed_course_ll(
+    headings: Callable[[IntArray, FloatArray, IntArray], FloatArray],
+    lengths: FloatArray,
+    edge: IntArray,
+    direction: IntArray,
+    offset_m: FloatArray,
+    lag_m: FloatArray,
+    course_deg: FloatArray,
+    sigma_deg: FloatArray,
+    use: BoolArray,
+    outlier_weight: float,
+    at_fix_ll: FloatArray,
+) -> FloatArray:
+    """The course's log-density against the track heading at the hypothesis' own place:
+    the fix's projection ``offset_m`` moved by the filtered lag ``lag_m`` (m, in the
+    running direction; kept on the edge), where it moved by more than
+    :data:`PLACE_MOVE_M`; ``at_fix_ll`` elsewhere."""
+    moved = use & (np.abs(lag_m) > PLACE_MOVE_M) & (np.abs(lag_m) < MAX_PLACE_MOVE_M)
+    if not moved.any():
+        return at_fix_ll
+    idx = np.flatnonzero(moved)
+    e = edge[idx]
+    place = np.clip(offset_m[idx] + direction[idx] * lag_m[idx], 0.0, lengths[e])
+    heading = headings(e, place, direction[idx])
+    diff = (course_deg[idx] - heading + 180.0) % 360.0 - 180.0
+    out = at_fix_ll.copy()
+    out[idx] = _course_ll(diff, sigma_deg[idx], outlier_weight)
+    return out
 
 
 def _came_from(
