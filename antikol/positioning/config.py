@@ -82,8 +82,8 @@ class PositioningConfig:
     implausible_move_nats : float
         A fix that every hypothesis reaches only by a move costing more than this (the
         along-track mismatch over the transition scale, with an odometer over 30 % of it:
-        e.g. 50 m) is an
-        outlier — a far multipath fix near another track — and is rejected like a fix with
+        e.g. 50 m) is an outlier — a far multipath fix near another track — and is
+        rejected like a fix with
         no track within the search radius: the vehicle keeps its hypotheses and is
         dead-reckoned, until ``max_rejections_in_row`` such fixes in a row restart it.
     outlier_fix_nats : float

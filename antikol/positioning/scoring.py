@@ -260,8 +260,7 @@ def score_fixes(
     # projects: in a tight curve a fix metres off along the track projects where the track
     # turns another way, and the hypothesis that knows its place should not pay for that
     pair_course_ll = _placed_course_ll(
-        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad,
-        course[pcv],
+        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad, course[pcv],
         course_sigma[pcv], use_course[pcv], c.course_outlier_weight, course_ll[pc],
     )  # fmt: skip
     along_ll = _mixture_ll(
