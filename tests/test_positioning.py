@@ -292,3 +292,12 @@ def test_asking_a_position_changes_no_later_position(tmp_path, seed):
 def test_a_scale_of_the_config_must_be_positive(name, value):
     with pytest.raises(InvalidArgumentError, match=name):
         PositioningConfig(**{name: value})
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("confident_after", 0), ("max_hypotheses", 0), ("sure_probability", 1.5)],
+)
+def test_a_count_or_probability_of_the_config_out_of_range_is_refused(name, value):
+    with pytest.raises(InvalidArgumentError, match=name):
+        PositioningConfig(**{name: value})

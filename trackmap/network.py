@@ -342,12 +342,18 @@ class TrackMap:
     ) -> FloatArray:
         """Vectorised :meth:`heading_at`: true headings of travel, degrees (the same
         numbers, to the last bit, as one call per position)."""
-        idx = np.asarray(edge_ids, dtype=np.int64)
-        off = np.asarray(offsets_m, dtype=float)
-        behind_x, behind_y = self._lines.interpolate(idx, np.maximum(off - 0.5, 0.0))
-        ahead_x, ahead_y = self._lines.interpolate(idx, np.minimum(off + 0.5, self._lengths[idx]))
-        dx = ahead_x - behind_x
-        dy = ahead_y - behind_y
+        idx, off = np.broadcast_arrays(
+            np.atleast_1d(np.asarray(edge_ids, dtype=np.int64)),
+            np.atleast_1d(np.asarray(offsets_m, dtype=float)),
+        )
+        n = len(idx)
+        # half a metre either side, in one search
+        xs_, ys_ = self._lines.interpolate(
+            np.concatenate((idx, idx)),
+            np.concatenate((np.maximum(off - 0.5, 0.0), np.minimum(off + 0.5, self._lengths[idx]))),
+        )
+        dx = xs_[n:] - xs_[:n]
+        dy = ys_[n:] - ys_[:n]
         # math.atan2 per element: numpy's SIMD arctan2 differs from the C library's in the
         # last bit for about 7 % of arguments, and heading_at uses the latter
         angle = np.fromiter(map(math.atan2, dx.tolist(), dy.tolist()), dtype=float, count=len(dx))

@@ -93,6 +93,13 @@ class PositioningConfig:
         dead-reckoned over (the ``max_rejections_in_row``-th in a row is taken as it is).
     confidence : float
         A match is ``confident`` when the best place holds at least this probability.
+    confident_after : int
+        ... and has held it at this many GPS matches in a row, on the same lineage (1: at
+        once), unless it holds ``sure_probability``. A belief that has just swung (the
+        nearer of two tracks changing under a jump of the bias) is not yet one to report
+        as sure, nor one to carry as sure through the dead reckoning that may follow.
+    sure_probability : float
+        A place this probable is ``confident`` at once (a lone track, a clear winner).
     switch_probability : float
         The reported position stays on the lineage of the previous one (a position that a
         move along the track connects to it) unless another hypothesis reaches this
@@ -187,6 +194,8 @@ class PositioningConfig:
     implausible_move_nats: float = 25.0
     outlier_fix_nats: float = 20.0
     confidence: float = 0.8
+    confident_after: int = 2
+    sure_probability: float = 0.99
     switch_probability: float = 0.75
     standing_switch_probability: float = 0.95
     max_speed_mps: float = 30.0
@@ -240,10 +249,12 @@ class PositioningConfig:
         ):
             if getattr(self, name) <= 0.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
-        if self.max_hypotheses < 1:
-            raise InvalidArgumentError("max_hypotheses", self.max_hypotheses, "must be >= 1")
+        for name in ("max_hypotheses", "confident_after"):
+            if getattr(self, name) < 1:
+                raise InvalidArgumentError(name, getattr(self, name), "must be >= 1")
         for name in (
             "confidence",
+            "sure_probability",
             "switch_probability",
             "standing_switch_probability",
             "outlier_weight",

@@ -450,7 +450,7 @@ class Positioner:
             self.reach,
             self.config,
             find,
-            self.net.headings_at,
+            self.reach.headings.at,
             reports,
             rows,
             t,
@@ -624,6 +624,7 @@ class Positioner:
         for name, values in zip(FIX_ERROR_FIELDS, error_cols, strict=True):
             getattr(f, name)[r, col] = values[m_idx]
         self.stats["lineage_switch"] += int(np.count_nonzero(switched))
+        f.confident_run[done[switched]] = 0  # the reported place's run starts again
         run_track_filters(
             f,
             c,

@@ -127,7 +127,9 @@ def place_vehicles(
     )
     lost = exhausted | (s_std > config.lost_sigma_m)
     place_p = fleet.place[rows]
-    confident = place_p >= config.confidence
+    confident = (place_p >= config.confidence) & (
+        (fleet.confident_run[rows] >= config.confident_after) | (place_p >= config.sure_probability)
+    )
     # the status of each plainly placed vehicle (an index into _STATUSES), -1 the others
     code = np.where(plain, np.where(lost, 2, np.where(confident, 0, 1)), -1).tolist()
     offsets, speeds, probabilities, sigmas, times = (
@@ -221,7 +223,9 @@ def place_one(
     status: PositionStatus
     if fleet.lost[row] is not None or exhausted or float(s_std) > c.lost_sigma_m:
         status = "lost"
-    elif place_p >= c.confidence:
+    elif place_p >= c.confidence and (
+        fleet.confident_run[row] >= c.confident_after or place_p >= c.sure_probability
+    ):
         status = "confident"
     else:
         status = "ambiguous"

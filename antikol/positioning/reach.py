@@ -31,6 +31,8 @@ import shapely
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from antikol.positioning.headings import HeadingProfile
+
 __all__ = ["ReachTable", "state_direction", "state_edge", "state_id"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -102,6 +104,8 @@ class ReachTable:
         self.allowed: npt.NDArray[np.bool_] = np.array(
             [e.allows(1 if k % 2 == 0 else -1) for e in edges for k in (0, 1)], dtype=bool
         )
+        #: the track headings every metre (the course's comparison, built once with these)
+        self.headings = HeadingProfile(track_map)
         self._physical = self._distances(track_map.traversal_any.edges())
         self._permitted = self._distances(track_map.traversal.edges())
         # steps back (a standing vehicle's fixes scatter around it) cross only nodes where

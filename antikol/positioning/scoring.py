@@ -117,7 +117,7 @@ def score_fixes(
         ``find(x, y, radius)``: the candidate places of fixes in the local frame (m).
     headings : callable
         ``headings(edge_id, offset_m, direction)``: true headings of travel (degrees) at
-        track places (:meth:`trackmap.TrackMap.headings_at`).
+        track places (:meth:`antikol.positioning.headings.HeadingProfile.at`).
     reports : list of VehicleReport
     rows : ndarray of int
         Each report's row in ``fleet``.
@@ -146,7 +146,8 @@ def score_fixes(
     # one candidate state per (candidate place, running direction)
     cv = np.repeat(found.point, 2)  # report index of each candidate state
     edge = np.repeat(found.edge_id, 2)
-    direction = np.tile(np.array([1, -1]), len(found.point))
+    direction = np.empty(len(edge), dtype=np.int64)
+    direction[0::2], direction[1::2] = 1, -1
     cs = state_id(edge, direction)
     co = np.repeat(found.offset_m, 2)
     lateral = np.repeat(found.lateral_m, 2)
@@ -182,7 +183,8 @@ def score_fixes(
     )
     h = np.radians(heading)
     nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
-    tx, ty = direction * np.sin(h), direction * np.cos(h)  # unit tangent, running way
+    sign = direction.astype(float)
+    tx, ty = sign * np.sin(h), sign * np.cos(h)  # unit tangent, running way
     static_ll = course_ll + np.where(wrong, c.wrong_way_log_prior, 0.0)
     standing = travelled < c.standstill_distance_m
     # a long stop is not a long run of evidence: the bias that dominates a standing
@@ -221,17 +223,17 @@ def score_fixes(
         c.transition_beta_m + 0.02 * travelled,
         c.transition_beta_m + 0.1 * travelled,
     )[cv][pc]
-    gate_beta = np.where(
-        has_odo[cv][pc], 0.3 * c.transition_beta_m + 0.02 * travelled[cv][pc], beta
-    )
-    move_cost = np.abs(dist - exp_m) / beta
-    gate_cost = np.abs(dist - exp_m) / gate_beta
     # a standing vehicle may change direction (bidirectional trams at termini)
     reversal = ((pss >> 1) == (p_cs >> 1)) & ((pss & 1) != (p_cs & 1))
     rev_ok = reversal & (exp_m < 1.0)
     rev_dist = np.abs(co[pc] - po)
-    move_cost = np.where(rev_ok, rev_dist / beta, move_cost)
-    gate_cost = np.where(rev_ok, rev_dist / gate_beta, gate_cost)
+    off_m = np.where(rev_ok, rev_dist, np.abs(dist - exp_m))
+    move_cost = off_m / beta
+    gate_cost = move_cost  # (the same scale without an odometer)
+    odo_pair = has_odo[cv][pc]
+    if odo_pair.any():
+        gate_beta = np.where(odo_pair, 0.3 * c.transition_beta_m + 0.02 * exp_m, beta)
+        gate_cost = off_m / gate_beta
     # at a standstill the candidates move with the fix's own error: their moves are
     # evidence of the fix (weighted as its emission), not of the vehicle
     trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost * move_weight[cv[pc]]
@@ -339,16 +341,16 @@ def score_fixes(
     top_lp = np.full(n, _NEG_INF)
     np.maximum.at(top_lp, cv, new_lp)
     # (judged with the best parent's move at the outlier gate's scale)
-    gate_pair = pair_of[ar, best]
-    stricter = np.zeros(len(cs))
-    if len(pc):
+    top_strict = top_lp
+    if gate_cost is not move_cost:
+        gate_pair = pair_of[ar, best]
         with np.errstate(invalid="ignore"):  # (no move at all: inf - inf)
             extra = (gate_cost - move_cost) * move_weight[pcv]
         extra = np.where(np.isfinite(extra), extra, 0.0)
         stricter = np.where(gate_pair < len(pc), extra[np.minimum(gate_pair, len(pc) - 1)], 0.0)
-    strict_lp = np.where(fresh[cv] | use0, new_lp, new_lp - stricter)
-    top_strict = np.full(n, _NEG_INF)
-    np.maximum.at(top_strict, cv, strict_lp)
+        strict_lp = np.where(fresh[cv] | use0, new_lp, new_lp - stricter)
+        top_strict = np.full(n, _NEG_INF)
+        np.maximum.at(top_strict, cv, strict_lp)
     poor = ~fresh & ~unmatched & ~stuck & (top_strict < -c.outlier_fix_nats)
     if poor.any():
         stats["outlier_fix"] += int(np.count_nonzero(poor))
@@ -389,10 +391,15 @@ def score_fixes(
     )
     new_came: FloatArray = np.where(use0 | of_best(rev_ok, False), -1.0, entered.astype(float))
 
-    def pick(a0: FloatArray, a: FloatArray) -> FloatArray:
-        return np.where(use0, a0, of_best(a, 0.0))
-
-    error_cols = tuple(pick(a0, a) for a0, a in zip(post0.columns(), post.columns(), strict=True))
+    # the filter's columns, all at once: a fresh start's where the vehicle starts afresh,
+    # else the best pair's
+    # (np.array of the columns, not np.stack: a third of the time on a cycle's few rows)
+    cols = np.array(post0.columns())
+    if len(pc):
+        cols = np.where(use0, cols, np.where(has_pair, np.array(post.columns())[:, at_pair], 0.0))
+    else:
+        cols = np.where(use0, cols, 0.0)
+    error_cols = tuple(cols)
     return Scored(
         unmatched,
         stuck & ~fresh,
