@@ -8,7 +8,8 @@
   (the state arrays), :mod:`~antikol.positioning.deadreckoning` (moving along the track
   without a fix) and :mod:`~antikol.positioning.placing` (the reported place of each
   vehicle, most of a fleet in arrays);
-* :mod:`antikol.positioning.reach` — along-track distances between track states;
+* :mod:`antikol.positioning.reach` — along-track distances between track states, and
+  :mod:`~antikol.positioning.headings` — track headings every metre (both once per map);
 * :mod:`antikol.positioning.fixerror` — each hypothesis' filter of its fix error (GPS bias
   and along-track lag);
 * :mod:`antikol.positioning.kalman` — the closed-form along-track filter;
