@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -41,6 +42,16 @@ _STATUSES: tuple[PositionStatus, ...] = ("confident", "ambiguous", "lost")
 #: The along-track filter's estimate of each vehicle: position (m along its history),
 #: speed (m/s) and the position's standard deviation (m), parallel arrays.
 Estimate = tuple[FloatArray, FloatArray, FloatArray]
+
+
+def _confident(place_p: npt.ArrayLike, run: npt.ArrayLike, config: PositioningConfig) -> Any:
+    """Whether places are ``confident``: probability at least ``confidence``, held at
+    ``confident_after`` matches in a row or at least ``sure_probability`` (arrays or
+    scalars, numpy booleans)."""
+    p = np.asarray(place_p)
+    return (p >= config.confidence) & (
+        (np.asarray(run) >= config.confident_after) | (p >= config.sure_probability)
+    )
 
 
 def place_vehicles(
@@ -127,9 +138,7 @@ def place_vehicles(
     )
     lost = exhausted | (s_std > config.lost_sigma_m)
     place_p = fleet.place[rows]
-    confident = (place_p >= config.confidence) & (
-        (fleet.confident_run[rows] >= config.confident_after) | (place_p >= config.sure_probability)
-    )
+    confident = _confident(place_p, fleet.confident_run[rows], config)
     # the status of each plainly placed vehicle (an index into _STATUSES), -1 the others
     code = np.where(plain, np.where(lost, 2, np.where(confident, 0, 1)), -1).tolist()
     offsets, speeds, probabilities, sigmas, times = (
@@ -223,9 +232,7 @@ def place_one(
     status: PositionStatus
     if fleet.lost[row] is not None or exhausted or float(s_std) > c.lost_sigma_m:
         status = "lost"
-    elif place_p >= c.confidence and (
-        fleet.confident_run[row] >= c.confident_after or place_p >= c.sure_probability
-    ):
+    elif _confident(place_p, fleet.confident_run[row], c):
         status = "confident"
     else:
         status = "ambiguous"
