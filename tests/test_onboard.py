@@ -21,7 +21,7 @@ from antikol import Analyser, VehicleReport
 from antikol.ingest.auth import HmacSigner, HmacVerifier
 from antikol.ingest.cobs import cobs_decode, cobs_encode
 from antikol.ingest.protocol import encode_report
-from antikol.onboard.attacker import ATTACK_KINDS
+from antikol.onboard.attacker import ATTACK_KINDS, attack_frames
 from antikol.onboard.inprocess import attack_in_process
 from antikol.onboard.receiver import SecureReceiver
 from antikol.onboard.transport import UdpTransport, parse_address
@@ -90,6 +90,24 @@ def test_own_echo_is_not_an_attack_but_another_sender_with_our_id_is() -> None:
     assert rx.receive(spoof, now=5.5) == []
     assert rx.rejected() == {"own_id": 1} and rx.counts["datagrams_rejected"] == 1
     assert rx.receive(b"\x01" * 5000, now=5.5) == [] and rx.rejected()["too_large"] == 1
+
+
+def test_garbage_never_resends_a_genuine_frame_unchanged() -> None:
+    # Two flips of the same bit once gave a receiver its own frame back: counted as an
+    # echo, not a rejection, it failed the harness's attack accounting in a few runs per hundred.
+    signer = HmacSigner(KEY)
+    genuine = [
+        encode_report(
+            VehicleReport(f"T{i}", 100.0 + i, 50.06, 19.94, 8.0, 90.0), seq=i, signer=signer
+        )
+        for i in range(6)
+    ]
+    bodies = {g.strip(b"\x00") for g in genuine}
+    frames = attack_frames(
+        "garbage", 30_000, genuine=genuine, now=105.0, rng=random.Random(0), target_id="T0"
+    )
+    unchanged = [f for f in frames if f.strip(b"\x00") in bodies]
+    assert unchanged == []
 
 
 def _mutate(rng: random.Random, frame: bytes, signer: HmacSigner) -> bytes:

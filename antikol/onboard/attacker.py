@@ -140,8 +140,8 @@ def attack_frames(
                 yield frame[: rng.randrange(1, len(frame) - 1)]
             else:  # bit flips (a flip may leave a 0x00: still one datagram)
                 buf = bytearray(frame)
-                for _ in range(rng.randint(1, 3)):
-                    j = rng.randrange(8, (len(buf) - 1) * 8)
+                # distinct bits: the same bit flipped twice would send the genuine frame
+                for j in rng.sample(range(8, (len(buf) - 1) * 8), rng.randint(1, 3)):
                     buf[j // 8] ^= 1 << (j % 8)
                 yield bytes(buf)
         else:
