@@ -1,7 +1,8 @@
 """Track-selective positioning against the simulator's truth: easy GPS and street GPS.
 
 Run: ``python benchmarks/positioning_accuracy.py [--seeds 4 5 6] [--trams 12] [--minutes 15]
-[--gps white urban feed late] [--set NAME=VALUE ...] [--figure reliability.png]``
+[--gps white urban feed late] [--set NAME=VALUE ...] [--gps-set NAME=VALUE ...]
+[--figure reliability.png]``
 
 For each GPS model of :mod:`antikol.sim` — ``white`` (white noise σ 3 m plus a 1.5 m
 Gauss–Markov bias, 10 % of fixes missing), ``urban`` (:meth:`GpsModel.urban`: lateral
@@ -23,7 +24,10 @@ their ``probability`` against the share of them on the right track), and the wro
 estimates and broken windows pooled over the seeds.
 ``--set`` changes fields of :class:`~antikol.positioning.PositioningConfig` for the run
 (e.g. ``--set stale_fix_run_m=1e12`` takes every repeated position as a fix, as before
-stale reports were recognised). ``--figure`` draws the reliability diagram (needs
+stale reports were recognised). ``--gps-set`` changes fields of the street receivers
+(:class:`~antikol.sim.urban_gps.UrbanGpsModel`: ``urban``, ``feed`` and ``late``), e.g.
+``--gps-set bias_canyon_lateral_m=8 odometer=false`` for a stronger multipath bias and no
+odometer. ``--figure`` draws the reliability diagram (needs
 matplotlib).
 """
 
@@ -38,14 +42,42 @@ from antikol.positioning import PositioningConfig
 from antikol.sim import GpsModel, Simulator, fleet
 
 
-def gps_models() -> dict[str, GpsModel]:
-    """The receivers of the positioning benchmarks, by name (see the module)."""
+def gps_models(**street: float | bool) -> dict[str, GpsModel]:
+    """The receivers of the positioning benchmarks, by name (see the module); ``street``
+    changes fields of the street receivers (``urban``, ``feed``, ``late``)."""
     return {
         "white": GpsModel(sigma_m=3.0, bias_sigma_m=1.5, bias_tau_s=60.0, missing_rate=0.10),
-        "urban": GpsModel.urban(),
-        "feed": GpsModel.urban(fix_quality_field=False),
-        "late": GpsModel.urban(latency_s=1.0),
+        "urban": GpsModel.urban(**street),
+        "feed": GpsModel.urban(**{"fix_quality_field": False, **street}),
+        "late": GpsModel.urban(**{"latency_s": 1.0, **street}),
     }
+
+
+def _street_settings(settings: list[str]) -> dict[str, float | bool]:
+    """``NAME=VALUE`` settings of the street receivers (numbers, ``true`` or ``false``)."""
+    from antikol.sim.urban_gps import UrbanGpsModel
+
+    fields = {f.name: f for f in dataclasses.fields(UrbanGpsModel)}
+    changes: dict[str, float | bool] = {}
+    for item in settings:
+        name, sep, value = item.partition("=")
+        if not sep or name not in fields:
+            raise SystemExit(f"--gps-set {item!r}: expected NAME=VALUE with an UrbanGpsModel field")
+        default = getattr(UrbanGpsModel(), name)
+        if isinstance(default, bool):
+            if value.lower() not in ("true", "false"):
+                raise SystemExit(f"--gps-set {item!r}: {name} is true or false")
+            changes[name] = value.lower() == "true"
+            continue
+        try:
+            changes[name] = int(value) if isinstance(default, int) else float(value)
+        except ValueError:
+            raise SystemExit(f"--gps-set {item!r}: {value!r} is not a number") from None
+    try:
+        GpsModel.urban(**changes)
+    except ValueError as exc:
+        raise SystemExit(f"--gps-set: {exc}") from None
+    return changes
 
 
 def _config(settings: list[str]) -> PositioningConfig:
@@ -89,9 +121,17 @@ def main() -> None:
         default=[],
         help="change PositioningConfig fields for the run",
     )
+    ap.add_argument(
+        "--gps-set",
+        metavar="NAME=VALUE",
+        nargs="+",
+        default=[],
+        help="change UrbanGpsModel fields of the street receivers (urban, feed, late)",
+    )
     ap.add_argument("--figure", help="write the reliability diagram to this PNG")
     args = ap.parse_args()
     config = _config(args.set)
+    street = _street_settings(args.gps_set)
     net = trackmap.load_default()
     results: dict[str, list[PositioningScore]] = {}
     print(
@@ -101,7 +141,7 @@ def main() -> None:
         "| along-track RMS error (raw fix) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    models = gps_models()
+    models = gps_models(**street)
     for name in args.gps:
         gps = models[name]
         for seed in args.seeds:

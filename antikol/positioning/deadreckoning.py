@@ -42,6 +42,7 @@ def dead_reckon(
     odometer: float,
 ) -> None:
     """A report without a position: advance on the odometer, or only note the time."""
+    fleet.note_run_without_fix(row, report.t, report.speed_mps)
     fleet.last[row] = report
     if not math.isfinite(odometer) or not math.isfinite(fleet.odo[row]):
         stats["no_fix"] += 1

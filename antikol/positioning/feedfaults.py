@@ -9,8 +9,13 @@ filter restarts at the frozen place after a few of them, and the returning fixes
 a jump. A real fix of a moving vehicle never repeats the previous report's coordinates to
 the last digit, so a report that does, after a run of ``stale_fix_run_m`` since the last
 fix, is dead-reckoned like a report without a fix (:func:`stale_fixes`; counted,
-``stale_fix``). While the vehicle stands, a repeated position may well be its own (a
-receiver holding a static position) and stays a fix; but when the position repeated is one
+``stale_fix``). The run is the odometer's, else the reported speeds' over every report
+since the fix: a tram that ran through a tunnel and then stood at a stop there has still
+run far from the position the feed froze at the portal (taken as a fix again once it
+stood, such a position put the tram back at the portal, confident, for a minute). A
+receiver holding a static position while the vehicle stands repeats a position that was a
+fix when the vehicle stopped: the run since then stays short, and it stays a fix. When the
+position repeated is one
 that was rejected (a far outlier frozen by the feed through an outage), each copy is the
 same evidence and counts once towards the rejections in a row that start a vehicle afresh
 (:meth:`~antikol.positioning.fleet.FleetState.repeats_rejected`): before, three copies of
@@ -27,8 +32,7 @@ and left a running tram ~9 m behind, confident, for half a minute.
 >>> from antikol.positioning.fleet import RunSinceFix
 >>> last = VehicleReport("T1", 10.0, 50.06, 19.94, 8.0, 90.0, odometer_m=1000.0)
 >>> ran = RunSinceFix(np.array([8.0]), np.array([1.0]), np.array([True]))  # 8 m in 1 s
->>> stale_fixes(np.array([50.06]), np.array([19.94]), [last], np.array([8.0]), ran,
-...             run_m=2.0).tolist()
+>>> stale_fixes(np.array([50.06]), np.array([19.94]), [last], ran, run_m=2.0).tolist()
 [True]
 """
 
@@ -47,9 +51,6 @@ __all__ = ["odometer_resets", "stale_fixes"]
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
-#: A vehicle reporting less speed than this is standing: a receiver may hold its position
-#: then (static hold), m/s.
-_MOVING_MPS = 1.0
 #: An odometer reading this far below the previous one is a reset, not rounding, m.
 ODOMETER_BACK_M = 1.0
 
@@ -58,7 +59,6 @@ def stale_fixes(
     lat: FloatArray,
     lon: FloatArray,
     previous: Sequence[VehicleReport | None],
-    speed_mps: FloatArray,
     since_fix: RunSinceFix,
     *,
     run_m: float,
@@ -71,9 +71,6 @@ def stale_fixes(
         The new reports' position, degrees.
     previous : sequence of VehicleReport or None
         Each vehicle's previous report (None: none yet).
-    speed_mps : ndarray of float
-        The new reports' speed, m/s: by speeds alone, a vehicle slower than 1 m/s stands
-        (a receiver may hold its position then).
     since_fix : RunSinceFix
         How far each vehicle ran since its last fix
         (:meth:`~antikol.positioning.fleet.FleetState.run_since_fix`).
@@ -92,9 +89,8 @@ def stale_fixes(
     )
     if not same.any():
         return same
-    moving = since_fix.by_odometer | (speed_mps >= _MOVING_MPS)
     ran = np.nan_to_num(since_fix.distance_m)
-    return same & moving & np.isfinite(since_fix.seconds) & (ran >= run_m)
+    return same & np.isfinite(since_fix.seconds) & (ran >= run_m)
 
 
 def odometer_resets(odometer_m: FloatArray, before_m: FloatArray) -> BoolArray:

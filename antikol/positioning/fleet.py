@@ -37,6 +37,7 @@ SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", *FIX_ERROR_FIELDS)
 VEHICLE_FIELDS = (
     "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
     "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood", "rx", "ry",
+    "run_nofix", "t_nofix", "v_nofix",
 )  # fmt: skip
 
 
@@ -86,7 +87,9 @@ class FleetState:
     # innovations beyond the gate in a row; the distance run (m) and the latency filter
     # (:mod:`antikol.positioning.latency`: offset, m, latency, s, and their covariance);
     # how long it has stood at its last fix, s; the local position of the last rejected
-    # fix (m, NaN: none yet)
+    # fix (m, NaN: none yet); the distance run by the reported speeds since the last fix
+    # (m), up to the last report without a usable fix, and that report's time (s, NaN:
+    # none since the fix) and speed (m/s)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -104,6 +107,9 @@ class FleetState:
     stood: FloatArray = field(init=False)
     rx: FloatArray = field(init=False)
     ry: FloatArray = field(init=False)
+    run_nofix: FloatArray = field(init=False)
+    t_nofix: FloatArray = field(init=False)
+    v_nofix: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -155,9 +161,23 @@ class FleetState:
         self.hs[row] = -1
         self.hp[row] = -math.inf
         self.hv[row] = -1.0
-        for name in ("t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry"):
+        for name in (
+            "t",
+            "x",
+            "y",
+            "odo",
+            "odo_fix",
+            "t_fix",
+            "lc",
+            "lt",
+            "rx",
+            "ry",
+            "t_nofix",
+            "v_nofix",
+        ):
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
+        self.run_nofix[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
         self.rejected[row] = self.confident_run[row] = self.gated[row] = 0
         self.unmatched[row] = False
@@ -184,14 +204,43 @@ class FleetState:
         self, rows: IntArray, t_s: FloatArray, speed_mps: FloatArray, odometer_m: FloatArray
     ) -> RunSinceFix:
         """How far the vehicles of ``rows`` ran since their last fix, by reports at ``t_s``
-        (s) with speeds (m/s) and odometer readings (m, NaN: none)."""
+        (s) with speeds (m/s) and odometer readings (m, NaN: none).
+
+        Without an odometer the distance is the reported speeds' integral over every report
+        since the fix (:meth:`note_run_without_fix`), not one mean speed over the whole
+        time: a tram that ran a kilometre through a tunnel and then stood still has run a
+        kilometre, not the half of its last speed times the time.
+        """
         seconds = np.maximum(t_s - self.t_fix[rows], 0.0)
         odo_fix = self.odo_fix[rows]
         by_odometer = np.isfinite(odometer_m) & np.isfinite(odo_fix)
-        distance = np.where(
-            by_odometer, odometer_m - odo_fix, 0.5 * (speed_mps + self.v[rows]) * seconds
-        )
+        step = self._speed_step(rows, t_s, speed_mps)
+        distance = np.where(by_odometer, odometer_m - odo_fix, self.run_nofix[rows] + step)
         return RunSinceFix(distance, seconds, by_odometer)
+
+    def _speed_step(self, rows: IntArray, t_s: FloatArray, speed_mps: FloatArray) -> FloatArray:
+        """Distance run by the speeds from the last report taken (m): the trapezoid from
+        the last report without a fix, or from the last fix."""
+        t_nofix = self.t_nofix[rows]
+        since = np.isfinite(t_nofix)
+        t0 = np.where(since, t_nofix, self.t_fix[rows])
+        v0 = np.where(since, self.v_nofix[rows], self.v[rows])
+        return 0.5 * (speed_mps + v0) * np.maximum(t_s - t0, 0.0)
+
+    def note_run_without_fix(self, row: int, t_s: float, speed_mps: float) -> None:
+        """Add the run of a report without a usable fix (time, s; speed, m/s) to the
+        vehicle's distance since its last fix."""
+        step = self._speed_step(
+            np.array([row], dtype=np.int64), np.array([t_s]), np.array([speed_mps])
+        )[0]
+        if math.isfinite(step):
+            self.run_nofix[row] += step
+        self.t_nofix[row], self.v_nofix[row] = t_s, speed_mps
+
+    def note_fix(self, rows: IntArray) -> None:
+        """The vehicles of ``rows`` have a new fix: their run since it starts at zero."""
+        self.run_nofix[rows] = 0.0
+        self.t_nofix[rows] = self.v_nofix[rows] = np.nan
 
     def row_state(self, row: int) -> dict[str, Any]:
         """One vehicle's row as a JSON-ready dict (see ``Positioner.state``)."""

@@ -388,7 +388,7 @@ class Positioner:
         lon = np.fromiter((r.lon for r in reports), float, n)
         lat = np.fromiter((r.lat for r in reports), float, n)
         stale = ~no_fix & stale_fixes(
-            lat, lon, [f.last[r] for r in rows.tolist()], speed,
+            lat, lon, [f.last[r] for r in rows.tolist()],
             f.run_since_fix(rows, t, speed, odo), run_m=c.stale_fix_run_m,
         )  # fmt: skip
         for name, happened in (("odometer_reset", reset), ("stale_fix", stale)):
@@ -660,6 +660,7 @@ class Positioner:
         f.x[r], f.y[r] = xs[which], ys[which]
         f.v[r] = speed[which]
         f.odo[r] = f.odo_fix[r] = odo[which]
+        f.note_fix(r)
         for i in which.tolist():
             f.last[rows[i]] = reports[i]
 
