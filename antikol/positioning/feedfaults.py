@@ -15,11 +15,10 @@ run far from the position the feed froze at the portal (taken as a fix again onc
 stood, such a position put the tram back at the portal, confident, for a minute). A
 receiver holding a static position while the vehicle stands repeats a position that was a
 fix when the vehicle stopped: the run since then stays short, and it stays a fix. When the
-position repeated is one
-that was rejected (a far outlier frozen by the feed through an outage), each copy is the
-same evidence and counts once towards the rejections in a row that start a vehicle afresh
-(:meth:`~antikol.positioning.fleet.FleetState.repeats_rejected`): before, three copies of
-one outlier 64 m off put a standing tram there.
+position repeated is one that was rejected (a far outlier frozen by the feed through an
+outage), each copy is the same evidence and counts once towards the rejections in a row
+that start a vehicle afresh (:meth:`~antikol.positioning.fleet.FleetState.repeats_rejected`):
+before, three copies of one outlier 64 m off put a standing tram there.
 
 **Reset odometers.** Some feeds report the distance run since the start of the trip, back
 to zero at every new trip. A reading that goes back (:func:`odometer_resets`; counted,
