@@ -39,6 +39,10 @@ VEHICLE_FIELDS = (
     "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood", "rx", "ry",
     "run_nofix", "t_nofix", "v_nofix",
 )  # fmt: skip
+#: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
+_UNKNOWN_AT_START = (
+    "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
+)  # fmt: skip
 
 
 class RunSinceFix(NamedTuple):
@@ -161,20 +165,7 @@ class FleetState:
         self.hs[row] = -1
         self.hp[row] = -math.inf
         self.hv[row] = -1.0
-        for name in (
-            "t",
-            "x",
-            "y",
-            "odo",
-            "odo_fix",
-            "t_fix",
-            "lc",
-            "lt",
-            "rx",
-            "ry",
-            "t_nofix",
-            "v_nofix",
-        ):
+        for name in _UNKNOWN_AT_START:
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
         self.run_nofix[row] = 0.0
