@@ -13,7 +13,7 @@ import trackmap
 from antikol import VehicleReport
 from antikol.errors import InvalidArgumentError
 from antikol.positioning.matcher import DiscreteFix, FixPoint, Positioner, PositioningConfig
-from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture, switch_fixture
+from tests._osm import FRAME, STRAIGHT_LINE, OsmBuilder, straight_fixture, switch_fixture
 from tests._paths import reports_along
 
 LINE = STRAIGHT_LINE
@@ -241,6 +241,36 @@ def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
     assert hold_at_switch(arrivals, hyps(0.95, 6.0), branch, 6.0, 1) is None  # decided
     assert hold_at_switch(arrivals, hyps(0.6, 50.0), branch, 50.0, 1) is None  # far past it
     assert hold_at_switch(arrivals, hyps(1.0, 6.0)[:1], branch, 6.0, 1) is None  # no rival
+
+
+def test_the_way_back_to_a_switch_crosses_a_junction_the_track_alone_does_not(tmp_path):
+    from antikol.positioning.branching import Arrivals
+
+    # trunk to a switch at (0, 0); its straight branch runs 20 m into a junction where a
+    # line from the west joins, then on north; the other branch curves east
+    b = OsmBuilder()
+    toe, junction = b.node(0.0, 0.0), b.node(0.0, 20.0)
+    b.line([(0.0, -300.0), toe], oneway="yes")
+    b.line([toe, junction], oneway="yes")
+    b.line([junction, (0.0, 300.0)], oneway="yes")
+    b.line([(-40.0, -100.0), (-6.0, 0.0), (-1.5, 12.0), junction], oneway="yes")
+    b.line([toe, (3.0, 10.0), (15.0, 30.0), (60.0, 80.0)], oneway="yes")
+    net = trackmap.build(b.write_xml(tmp_path / "j.osm"))
+    trunk, spur, north = (
+        next(e.edge_id for e in net.edges if e.way_ids == (w,)) for w in (1, 2, 3)
+    )
+    arrivals = Arrivals(net)
+    # from the north line the track alone stops at the junction: two ways lead there
+    assert arrivals.switches((north, 1)) == ()
+    assert arrivals.merge_behind_m((north, 1)) == 0.0
+    assert arrivals.nearest_switch_m(np.array([north]), np.array([1]))[0] == 0.0
+    # the way a vehicle came finds the switch 20 m behind the entry of the north line
+    found = arrivals.switches_along([(trunk, 1), (spur, 1), (north, 1)])
+    assert [(node, state) for node, _, state in found] == [(toe, (spur, 1))]
+    assert found[0][1] == pytest.approx(net.edge_length(spur))
+    # on the spur itself the track alone finds it, and no junction stops the way back
+    assert arrivals.switches((spur, 1)) == ((toe, 0.0, (spur, 1)),)
+    assert arrivals.merge_behind_m((spur, 1)) == float("inf")
 
 
 def test_a_restored_state_goes_on_as_the_original_past_a_switch(tmp_path):

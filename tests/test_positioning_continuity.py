@@ -39,6 +39,7 @@ _START_BESIDE = "a_start_beside_the_other_direction_before_a_node.json"
 _OUTLIER_STANDING = "an_outlier_while_standing_at_a_node.json"
 _CURVE_PAIR = "two_tracks_one_way_through_a_curve.json"
 _SWUNG_BELIEF = "a_swung_belief_before_an_outage.json"
+_PAST_A_JUNCTION = "an_outage_past_a_switch_and_a_junction.json"
 
 
 @pytest.fixture(scope="module")
@@ -712,3 +713,22 @@ def test_a_belief_that_has_just_swung_is_not_carried_as_sure_through_an_outage()
     # while the belief held, it was confident (the rule waits for a second match only)
     held = [p for p in out if 522.0 <= p.t <= 531.0]
     assert held and all(p.edge_id == 1092 and p.status == "confident" for p in held)
+
+
+def test_an_outage_past_a_switch_holds_at_it_over_a_junction_just_past_it():
+    # street GPS, a receiver whose output is 1 s old: the tram's last fix is at the end of
+    # 109, at a switch (t = 395 s); dead-reckoned on its odometer it runs onto 414 or 548,
+    # both kept at 0.50. 414 runs 34 m into a junction where another track joins (546
+    # begins there). Two seconds on the estimate was 39 m past the switch, over the
+    # junction: the switch was looked for back along the track alone, which stops where
+    # two tracks join, so the tram was reported on 546 at a coin toss instead of held at
+    # the switch (the fix came back on the other branch: a break in the reported positions)
+    net = trackmap.load_default()
+    out = {p.t: p for p in _replay_recorded(net, _PAST_A_JUNCTION, "T05")}
+    trunk_end = (109, net.edge_length(109), 1)
+    shown = out[397.0]
+    assert {h.edge_id for h in shown.hypotheses} == {414, 1196}  # both branches open
+    assert (shown.edge_id, shown.offset_m, shown.direction) == pytest.approx(trunk_end)
+    assert shown.status == "ambiguous"
+    assert shown.sigma_m is not None and shown.sigma_m > 34.0  # the run past it, unknown
+    assert out[399.0].edge_id == 68 and out[399.0].status == "confident"  # the other branch

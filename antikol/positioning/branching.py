@@ -11,7 +11,10 @@ The switch is found by following each hypothesis back along the track it came by
 (:meth:`Arrivals.before`), so a switch a few short edges behind the reported position counts
 as well as one at the start of its edge, and a hypothesis on another branch counts however
 its branch is cut into edges; a hypothesis still on the track before the switch has not
-decided either. Of several undecided switches the vehicle is held at the earliest: a later
+decided either. Where tracks join, the track alone does not tell the way back: the reported
+position is then followed back the way its lineage came (:meth:`Arrivals.switches_along`),
+so that a branch that runs into another line a few metres past the switch is held at the
+switch as any other. Of several undecided switches the vehicle is held at the earliest: a later
 one lies on a branch of it that is not decided either. A position carried past a switch by
 the along-track filter before any hypothesis has passed it is undecided too.
 
@@ -69,6 +72,7 @@ class Arrivals:
         self._skeletons: dict[State, tuple[tuple[int, float, State, bool], ...]] = {}
         self._passed: dict[State, frozenset[int]] = {}
         self._switches: dict[State, tuple[tuple[int, float, State], ...]] = {}
+        self._merge: dict[State, float] = {}
         #: Length of each edge, m (``net.edge_length``, indexed by edge id).
         self.lengths_m = np.array([net.edge_length(e.edge_id) for e in net.edges], dtype=float)
         # metres to the nearest facing switch behind each state's entry, by state id
@@ -137,6 +141,47 @@ class Arrivals:
         self._skeletons[start] = result
         return result
 
+    def merge_behind_m(self, state: State) -> float:
+        """Metres of track between the entry of ``state`` and the junction behind it where
+        :meth:`skeleton` stops because several tracks join (``inf``: it stops at none
+        within :data:`LOOKBACK_M`). A facing switch beyond such a junction is found only
+        along the way a vehicle came (:meth:`switches_along`)."""
+        cached = self._merge.get(state)
+        if cached is None:
+            cached = math.inf
+            *_, (node, behind, last, _) = self.skeleton(state)
+            if behind <= LOOKBACK_M and self.before(*last) is None:
+                joining = [
+                    s
+                    for s in self._at.get(node, ())
+                    if s[0] != last[0] and last in self.net.successors(*s, respect_direction=False)
+                ]
+                if len(joining) > 1:
+                    cached = behind
+            self._merge[state] = cached
+        return cached
+
+    def switches_along(self, way: Sequence[State]) -> tuple[tuple[int, float, State], ...]:
+        """The facing switches behind the entry of the last state of ``way``, following
+        the way back: ``way`` lists the (edge, direction) states a vehicle ran through,
+        oldest first, each entered from the one before; behind the first, its
+        :meth:`switches`. As :meth:`switches`: (node, metres of track between it and the
+        entry of the last state, the state entered there), nearest first, up to
+        :data:`LOOKBACK_M`."""
+        out: list[tuple[int, float, State]] = []
+        behind = 0.0
+        for k in range(len(way) - 1, 0, -1):
+            if behind > LOOKBACK_M:
+                return tuple(out)
+            came, entered = way[k - 1], way[k]
+            if self.facing(came):
+                out.append((entry_node(self.net, *entered), behind, entered))
+            behind += self.net.edge_length(came[0])
+        out.extend(
+            (n, behind + b, s) for n, b, s in self.switches(way[0]) if behind + b <= LOOKBACK_M
+        )
+        return tuple(out)
+
     def switches(self, state: State) -> tuple[tuple[int, float, State], ...]:
         """The facing switches of :meth:`skeleton`, nearest first (cached): (node, metres of
         track between it and the entry of ``state``, the state entered there)."""
@@ -149,14 +194,17 @@ class Arrivals:
     def nearest_switch_m(self, edges: IntArray, directions: IntArray) -> FloatArray:
         """Metres of track between the entry of each state and the nearest facing switch
         behind it (:meth:`switches`; ``inf`` where there is none), for arrays of edge ids
-        and directions (+1/-1)."""
+        and directions (+1/-1). A junction where tracks join counts as such a switch
+        (:meth:`merge_behind_m`): beyond it only the way a vehicle came tells."""
         ids = 2 * edges + (directions < 0)
         near = self._nearest[ids]
         missing = np.isnan(near)
         if missing.any():
             for i in np.unique(ids[missing]).tolist():
-                found = self.switches((i >> 1, 1 - 2 * (i & 1)))
-                self._nearest[i] = found[0][1] if found else math.inf
+                state = (i >> 1, 1 - 2 * (i & 1))
+                found = self.switches(state)
+                nearest = found[0][1] if found else math.inf
+                self._nearest[i] = min(nearest, self.merge_behind_m(state))
             near = self._nearest[ids]
         return near
 
@@ -206,6 +254,7 @@ def hold_at_switch(
     *,
     released: Collection[int] = (),
     route: Collection[int] | None = None,
+    way: Sequence[State] = (),
 ) -> SwitchHold | None:
     """The switch to report instead of an undecided branch, or None when every switch the
     position has just passed is decided.
@@ -224,13 +273,19 @@ def hold_at_switch(
         :data:`RELEASED_SHARE`.
     route : collection of int, optional
         Edge ids of the vehicle's planned route: a branch on it is decided.
+    way : sequence of (int, int), optional
+        The states the reported position came through, oldest first, ending with
+        ``(edge, direction)``; its first hypothesis' state among them
+        (:meth:`Arrivals.switches_along`). Without it, the track's own way back
+        (:meth:`Arrivals.switches`), which stops where tracks join.
 
     Returns
     -------
     SwitchHold or None
     """
     net = arrivals.net
-    behind_us = arrivals.switches((edge, direction))
+    along = len(way) > 1 and tuple(way[-1]) == (edge, direction)
+    behind_us = arrivals.switches_along(way) if along else arrivals.switches((edge, direction))
     if not behind_us:
         return None
     past0 = offset if direction == 1 else net.edge_length(edge) - offset
@@ -247,8 +302,16 @@ def hold_at_switch(
         ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)}, h.probability)
         for h in hypotheses
     ]
+    came = dict(zip(way[1:], way[:-1], strict=False)) if along else {}
+    if along and hypotheses:
+        # the first hypothesis came the reported position's way (its state is on it)
+        first = (hypotheses[0].edge_id, hypotheses[0].direction)
+        if first in way[1:]:
+            mine_way = list(way[: list(way).index(first) + 1])
+            passed = {n: s for n, _, s in arrivals.switches_along(mine_way)}
+            chains[0] = ({**chains[0][0], **passed}, chains[0][1])
     for node, past, state in reversed(switches):  # the earliest switch first
-        trunk = arrivals.before(*state)
+        trunk = came.get(state) or arrivals.before(*state)
         if trunk is None:  # pragma: no cover - a switch has a track before it
             continue
         mine = others = 0.0

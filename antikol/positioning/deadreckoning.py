@@ -162,12 +162,18 @@ class Advanced(NamedTuple):
         beyond the start edge that lies on the path taken (1.0 when no switch was passed or
         no hypothesis lies beyond). A position carried past a switch is no surer of its
         branch than the hypotheses are.
+    via : tuple of (int, int)
+        The (edge, direction) states a forward move entered beyond its start edge, in
+        order, the last one where it is now (empty when it stayed on its edge or moved
+        back): the way it came, which the track alone does not tell past a junction
+        where tracks join.
     """
 
     edge_id: int
     offset_m: float
     direction: int
     branch_share: float = 1.0
+    via: tuple[tuple[int, int], ...] = ()
 
 
 def advance(
@@ -230,7 +236,11 @@ def advance(
         taken = preferred_path(paths, route, edge_mass=edge_mass)
         last = taken.steps[-1]
         return Advanced(
-            last.edge_id, last.exit_offset_m, last.direction, _share(paths, taken, edge_mass)
+            last.edge_id,
+            last.exit_offset_m,
+            last.direction,
+            _share(paths, taken, edge_mass),
+            tuple((st.edge_id, int(st.direction)) for st in taken.steps[1:]),
         )
     # behind the start of the edge (the filter lags the matched lineage, or kept its
     # prediction over an outlier fix): back the way the vehicle came, when it is known;

@@ -22,7 +22,7 @@ import numpy.typing as npt
 from antikol.kinds import PositionStatus
 from antikol.positioning.branching import HOLD_M, Arrivals, hold_at_switch
 from antikol.positioning.config import PositioningConfig
-from antikol.positioning.deadreckoning import advance, edge_mass
+from antikol.positioning.deadreckoning import Advanced, advance, edge_mass
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.outputs import Placement
 from antikol.positioning.reach import state_direction, state_edge
@@ -215,10 +215,12 @@ def place_one(
     )
     edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
     place_p = float(fleet.place[row]) * moved.branch_share
-    if arrivals.switches((edge, direction)):  # a switch behind: held there?
+    way = _way(net, first, entered, moved)
+    behind = arrivals.switches_along(way) if len(way) > 1 else arrivals.switches(way[0])
+    if behind:  # a switch behind: held there?
         released = arrivals.switches_behind(basis) if basis else frozenset()
         held = hold_at_switch(
-            arrivals, hyps, edge, off, direction, released=released, route=last.route
+            arrivals, hyps, edge, off, direction, released=released, route=last.route, way=way
         )
         if held is not None:
             edge, off, direction, past_m, _ = held
@@ -250,3 +252,19 @@ def place_one(
         hyps,
         max(age, 0.0),
     )
+
+
+def _way(net: TrackMap, first: Hypothesis, entered: int, moved: Advanced) -> list[tuple[int, int]]:
+    """The states the reported position came through, oldest first, ending where it is:
+    the state its lineage entered its edge from (when known), the lineage's, and those a
+    forward move ran into (only where it is, when it moved back)."""
+    here = (moved.edge_id, moved.direction)
+    lineage = (first.edge_id, first.direction)
+    if here != lineage and not moved.via:
+        return [here]  # moved back off the lineage's edge
+    way = [lineage, *moved.via]
+    if entered >= 0:
+        came = (int(state_edge(entered)), int(state_direction(entered)))
+        if lineage in net.successors(*came, respect_direction=False):
+            way.insert(0, came)
+    return way
