@@ -215,16 +215,20 @@ def place_one(
     )
     edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
     place_p = float(fleet.place[row]) * moved.branch_share
-    way = _way(net, first, entered, moved)
-    behind = arrivals.switches_along(way) if len(way) > 1 else arrivals.switches(way[0])
-    if behind:  # a switch behind: held there?
-        released = arrivals.switches_behind(basis) if basis else frozenset()
-        held = hold_at_switch(
-            arrivals, hyps, edge, off, direction, released=released, route=last.route, way=way
-        )
-        if held is not None:
-            edge, off, direction, past_m, _ = held
-            s_std, place_p = s_std + past_m, float(fleet.place[row])
+    # held at an undecided switch behind it? (None at once when there is none)
+    held = hold_at_switch(
+        arrivals,
+        hyps,
+        edge,
+        off,
+        direction,
+        released=arrivals.switches_behind(basis) if basis else frozenset(),
+        route=last.route,
+        way=_way(net, first, entered, moved),
+    )
+    if held is not None:
+        edge, off, direction, past_m, _ = held
+        s_std, place_p = s_std + past_m, float(fleet.place[row])
     age = t - float(fleet.t_fix[row])
     odometer_run = float(fleet.odo[row] - fleet.odo_fix[row])
     if math.isfinite(odometer_run):
