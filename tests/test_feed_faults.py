@@ -226,3 +226,27 @@ def test_an_odometer_reset_to_zero_at_a_new_trip_leaves_the_position_where_it_is
     ]
     pos = _followed(straight, reports, speed)
     assert pos.stats["odometer_reset"] == 1
+
+
+def test_a_late_report_rejected_for_its_time_keeps_the_odometer_baseline(straight):
+    # an archive delivered a message late: its time and odometer are behind the last
+    # report's. It is rejected for its time; its odometer once counted as a reset and
+    # wiped the baseline, so the first report of the tunnel after it was not carried on
+    # the odometer and the tram was reported a step (10 m) behind until the next fix
+    speed = 10.0
+    t = np.arange(0.0, 12.0, 1.0)
+    reports = reports_along("V", STRAIGHT_LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME)
+    reports = [
+        dataclasses.replace(r, odometer_m=5000.0 + speed * r.t, fix_quality=int(k < 6))
+        for k, r in enumerate(reports)
+    ]
+    late = dataclasses.replace(reports[3], t=4.5, odometer_m=5000.0 + speed * 4.5)
+    pos = Positioner(straight)
+    for r in [*reports[:6], late]:
+        pos.update(r)
+    assert pos.stats["rejected_time"] == 1
+    for k, r in enumerate(reports[6:], start=6):
+        p = pos.update(r)
+        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
+    assert pos.stats["odometer_reset"] == 0
+    assert pos.stats["odometer_dead_reckoning"] == 6

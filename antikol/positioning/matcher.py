@@ -384,16 +384,12 @@ class Positioner:
         # speeds), a repeated position while the vehicle runs on is no fix
         f = self._f
         reset = odometer_resets(odo, f.odo[rows])
-        f.odo[rows[reset]] = f.odo_fix[rows[reset]] = np.nan
         lon = np.fromiter((r.lon for r in reports), float, n)
         lat = np.fromiter((r.lat for r in reports), float, n)
         stale = ~no_fix & stale_fixes(
             lat, lon, [f.last[r] for r in rows.tolist()],
             f.run_since_fix(rows, t, speed, odo), run_m=c.stale_fix_run_m,
         )  # fmt: skip
-        for name, happened in (("odometer_reset", reset), ("stale_fix", stale)):
-            if happened.any():
-                self.stats[name] += int(np.count_nonzero(happened))
         no_fix |= stale
         xs, ys = self.net.to_local(lon, lat)
         xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
@@ -420,6 +416,14 @@ class Positioner:
                     "%s: report at t=%.1f rejected (%s)", reports[i].vehicle_id, t[i], reason[i]
                 )
         keep = ~rejected
+        # (only now: a report that came late, its odometer behind the last one's, is
+        # rejected for its time and must not wipe the odometer's baseline)
+        reset &= keep
+        stale &= keep
+        f.odo[rows[reset]] = f.odo_fix[rows[reset]] = np.nan
+        for name, happened in (("odometer_reset", reset), ("stale_fix", stale)):
+            if happened.any():
+                self.stats[name] += int(np.count_nonzero(happened))
 
         # 2. reports without a position fix: dead reckoning on the odometer, if any
         self._dead_reckon(np.flatnonzero(keep & no_fix), reports, rows, odo)
