@@ -99,8 +99,10 @@ class VehicleReport:
         dead-reckoned along the track.
     odometer_m : float, optional
         Distance the vehicle has travelled, m, from any origin (its odometer or the
-        operator feed's travelled distance); it never decreases between reports of one
-        vehicle. Positioning uses its increments as the distance travelled.
+        operator feed's travelled distance). Positioning uses its increments as the
+        distance travelled; a reading that goes back (a new trip's count) or a step the
+        reported speeds cannot have run (a glitch, a frozen counter) is no measurement,
+        and that step runs on the speeds.
 
     Raises
     ------

@@ -19,7 +19,12 @@ from hypothesis import strategies as st
 import trackmap
 from antikol import VehicleReport
 from antikol.positioning import Positioner
-from antikol.positioning.feedfaults import ODOMETER_BACK_M, odometer_resets, stale_fixes
+from antikol.positioning.feedfaults import (
+    ODOMETER_BACK_M,
+    odometer_glitches,
+    odometer_resets,
+    stale_fixes,
+)
 from antikol.positioning.fleet import FleetState
 from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture
 from tests._paths import reports_along
@@ -250,3 +255,52 @@ def test_a_late_report_rejected_for_its_time_keeps_the_odometer_baseline(straigh
         assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
     assert pos.stats["odometer_reset"] == 0
     assert pos.stats["odometer_dead_reckoning"] == 6
+
+
+def _odometer_fault(kind: str, k: int, t: float, speed: float) -> float:
+    true = 5000.0 + speed * t
+    if kind == "spike":  # one reading 100 m ahead
+        return true + 100.0 if k == 12 else true
+    if kind == "step":  # the count jumps 20 m ahead and goes on from there
+        return true + 20.0 if k >= 12 else true
+    if kind == "frozen":  # the counter stops for 15 s, then catches up
+        return 5000.0 + speed * min(t, 12.0) if k < 27 else true
+    return true / 1000.0  # kilometres
+
+
+@pytest.mark.parametrize("kind", ["spike", "step", "frozen", "kilometres"])
+def test_an_odometer_step_the_speeds_cannot_run_is_no_measurement(straight, kind):
+    # taken at face value, one reading 100 m ahead put the tram 100 m and then 200 m
+    # ahead, confident, and threw the right fixes out; a frozen counter kept it 20-30 m
+    # behind; a count in kilometres stood the tram still
+    speed = 10.0
+    t = np.arange(0.0, 40.0, 1.0)
+    reports = reports_along("V", STRAIGHT_LINE, start_m=100.0, speed_mps=speed, t=t, frame=FRAME)
+    reports = [
+        dataclasses.replace(r, odometer_m=_odometer_fault(kind, k, r.t, speed))
+        for k, r in enumerate(reports)
+    ]
+    pos = _followed(straight, reports, speed)
+    assert pos.stats["odometer_glitch"] >= 1
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    v0=st.floats(min_value=0.0, max_value=25.0),
+    accel=st.floats(min_value=-3.5, max_value=3.5),
+    dt=st.floats(min_value=0.1, max_value=60.0),
+    scale=st.floats(min_value=0.97, max_value=1.03),
+)
+def test_an_odometer_step_any_possible_run_makes_is_no_glitch(v0, accel, dt, scale):
+    # a constant acceleration from v0 (stopping at 0), read by an odometer 3 % off
+    stop_s = -v0 / accel if accel < 0 else math.inf
+    run_s = min(dt, stop_s)
+    v1 = v0 + accel * run_s
+    if v1 > 30.0:
+        return
+    run = scale * (v0 * run_s + 0.5 * accel * run_s * run_s)
+    glitch = odometer_glitches(
+        np.array([run]), np.array([dt]), np.array([v0]), np.array([v1]),
+        max_accel_mps2=3.5, max_speed_mps=30.0,
+    )  # fmt: skip
+    assert not glitch[0]

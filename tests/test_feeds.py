@@ -101,7 +101,7 @@ def test_hfp_derives_missing_speed_and_heading_and_flags_positions_without_a_fix
     msgs[5]["VP"]["spd"] = None
     msgs[5]["VP"]["hdg"] = None
     msgs[6]["VP"].update(loc="ODO", lat=None, long=None)
-    msgs[7]["VP"]["odo"] = msgs[6]["VP"]["odo"] - 50  # an odometer going back
+    msgs[7]["VP"]["odo"] = msgs[6]["VP"]["odo"] - 50  # an odometer going back: passed on
     msgs[0]["VP"]["spd"] = None  # the first record: nothing to derive from
     path = tmp_path / "array.json"
     path.write_text(json.dumps(msgs))
@@ -115,7 +115,71 @@ def test_hfp_derives_missing_speed_and_heading_and_flags_positions_without_a_fix
     no_fix = reports[5]
     assert no_fix.fix_quality == 0 and (no_fix.lat, no_fix.lon) == (reports[4].lat, reports[4].lon)
     assert no_fix.odometer_m == msgs[6]["VP"]["odo"]
-    assert reports[6].odometer_m is None and reports[7].odometer_m == msgs[8]["VP"]["odo"]
+    assert reports[6].odometer_m == msgs[7]["VP"]["odo"]
+    assert reports[7].odometer_m == msgs[8]["VP"]["odo"]
+
+
+def _moving(simulated, vehicle_id: str, n: int):
+    run = [r for r in simulated if r.vehicle_id == vehicle_id and r.speed_mps > 3.0][:n]
+    assert len(run) == n
+    return run
+
+
+def test_hfp_odometer_counted_per_trip_is_kept_after_the_reset(simulated, tmp_path):
+    # HSL-style feeds count the odometer from the start of each trip: it goes back to 0
+    # at a new trip. Every reading of the new trip went back against the old trip's last
+    # one, and all of them were dropped (the tram ran the rest of the day without one)
+    run = _moving(simulated, "T01", 30)
+    msgs = [_vp(r) for r in run]
+    base = run[0].odometer_m
+    for k, (m, r) in enumerate(zip(msgs, run, strict=True)):
+        m["VP"]["odo"] = round(r.odometer_m - base if k < 15 else r.odometer_m - run[15].odometer_m)
+    path = tmp_path / "trips.json"
+    path.write_text(json.dumps(msgs))
+    log = read_hfp(path)
+    assert len(log.reports) == 30
+    assert [r.odometer_m for r in log.reports] == [m["VP"]["odo"] for m in msgs]
+    assert [(p.line, p.kept) for p in log.problems] == [(16, True)]
+    assert "odometer" in log.problems[0].reason
+
+
+def test_hfp_without_speeds_derives_them_from_the_first_record_on(simulated, tmp_path):
+    # a feed that never fills spd: the first record has nothing to derive a speed from;
+    # it was dropped without being remembered, and so was every record after it
+    run = _moving(simulated, "T02", 12)
+    msgs = [_vp(r, spd=None, odo=None) for r in run]  # (from the fixes alone)
+    path = tmp_path / "nospeed.json"
+    path.write_text(json.dumps(msgs))
+    log = read_hfp(path)
+    assert [(p.line, p.kept) for p in log.problems] == [(1, False)]
+    assert "spd" in log.problems[0].reason
+    assert len(log.reports) == 11
+    errors = [
+        abs(got.speed_mps - src.speed_mps) for got, src in zip(log.reports, run[1:], strict=True)
+    ]
+    # (street fixes are metres off each; over 5 s the speed lags an accelerating tram)
+    assert sorted(errors)[len(errors) // 2] < 2.0, errors
+
+
+def test_hfp_never_makes_up_the_course_of_a_moving_tram(simulated, tmp_path):
+    # hdg missing on the first records of a running tram: the course was made up as 0
+    # (north) and positioning weighed it like a measured one
+    # (nor derives it from one second's run: the fixes' errors are as large as the run)
+    run = _moving(simulated, "T03", 12)
+    msgs = [_vp(r, hdg=None) for r in run]
+    path = tmp_path / "nocourse.json"
+    path.write_text(json.dumps(msgs))
+    log = read_hfp(path)
+    dropped = len(log.problems)
+    assert 1 <= dropped <= 4
+    assert [(p.line, p.kept) for p in log.problems] == [(k, False) for k in range(1, dropped + 1)]
+    assert all("hdg" in p.reason for p in log.problems)
+    assert len(log.reports) == 12 - dropped
+    offs = [
+        abs((got.course_deg - src.course_deg + 180.0) % 360.0 - 180.0)
+        for got, src in zip(log.reports, run[dropped:], strict=True)
+    ]
+    assert max(offs) < 45.0 and sorted(offs)[len(offs) // 2] < 15.0, offs
 
 
 def test_hfp_csv_archive_form(simulated, tmp_path):

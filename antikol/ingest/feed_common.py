@@ -8,7 +8,12 @@ record at a time and
 * derives a missing speed and course over ground from the vehicle's previous position
   (WGS84 geodesic through pyproj), or from its odometer for the speed;
 * keeps the last known position for records without a position fix (``fix_quality`` 0);
-* drops an odometer reading that goes back (the record is kept, the problem noted);
+* passes an odometer reading that goes back on, noted: many feeds count the distance from
+  the start of the trip, back to zero at every new trip, and the positioner takes such a
+  step on the speeds (:mod:`antikol.positioning.feedfaults`); dropping the reading would
+  drop every later one of the trip as well;
+* never makes up a course: a moving vehicle's first record without one (nothing to derive
+  it from) is no report, noted, but the next record derives its speed and course from it;
 * skips exact repeats of a vehicle's last record time (feeds repeat snapshots), counted;
 * turns every invalid value into a :class:`~antikol.ingest.replaylog.RowProblem` naming
   the record and the field — never an exception, never a silent loss (``strict`` raises
@@ -20,20 +25,27 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from pyproj import Geod
 
 from antikol.errors import InvalidReportError, ReplayError
 from antikol.ingest.replaylog import ReplayLog, RowProblem
 from antikol.report import VehicleReport
+from antikol.thresholds import COURSE_MIN_SPEED_MPS
 
 __all__ = ["FeedCollector", "FeedRecord"]
 
 logger = logging.getLogger(__name__)
 
 _GEOD = Geod(ellps="WGS84")
-#: Below this derived speed the derived course is meaningless and the last one is kept, m/s.
-_COURSE_MIN_SPEED_MPS = 0.5
+#: A course is derived from two fixes at least this far apart, m: from one second's run
+#: of a tram (a few metres) the fixes' own errors give courses off by tens of degrees.
+_COURSE_BASELINE_M = 15.0
+#: Fixes kept per vehicle to derive a course or a speed from, s.
+_TRAIL_S = 10.0
+#: A speed is derived over the fixes of the last few seconds (not the last one alone), s.
+_SPEED_BASELINE_S = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,13 +80,55 @@ class FeedRecord:
     has_fix: bool = True
 
 
+class _Fix(NamedTuple):
+    t: float
+    lat: float
+    lon: float
+
+
 @dataclass
 class _Last:
     t: float
     lat: float
     lon: float
-    course: float
+    course: float | None  # None: not known (never reported nor derived)
     odometer: float | None
+    trail: tuple[_Fix, ...] = ()  # the vehicle's fixes of the last _TRAIL_S, oldest first
+
+    def followed_by(
+        self,
+        t: float,
+        lat: float,
+        lon: float,
+        fix: bool,
+        course: float | None,
+        odometer: float | None,
+    ) -> _Last:
+        """The vehicle's memory after a record (a fix joins the trail)."""
+        trail = tuple(f for f in self.trail if f.t >= t - _TRAIL_S)
+        return _Last(t, lat, lon, course, odometer, (*trail, _Fix(t, lat, lon)) if fix else trail)
+
+
+def _derived_course(trail: tuple[_Fix, ...], lat: float, lon: float) -> float | None:
+    """Azimuth (degrees) from the newest fix of ``trail`` at least ``_COURSE_BASELINE_M``
+    away to (lat, lon); None when every fix is nearer."""
+    for f in reversed(trail):
+        az, _, dist = _GEOD.inv(f.lon, f.lat, lon, lat)
+        if dist >= _COURSE_BASELINE_M:
+            return float(az) % 360.0
+    return None
+
+
+def _derived_speed(trail: tuple[_Fix, ...], t: float, lat: float, lon: float) -> float | None:
+    """Mean speed (m/s) since the oldest fix of ``trail`` in the last ``_SPEED_BASELINE_S``
+    (the last fix when none is that recent); None without a fix before ``t``."""
+    before = [f for f in trail if f.t < t]
+    if not before:
+        return None
+    recent = [f for f in before if f.t >= t - _SPEED_BASELINE_S] or before[-1:]
+    first = recent[0]
+    _, _, dist = _GEOD.inv(first.lon, first.lat, lon, lat)
+    return float(dist) / (t - first.t)
 
 
 @dataclass
@@ -123,15 +177,15 @@ class FeedCollector:
             return
         odometer = rec.odometer_m
         last_odo = None if last is None else last.odometer
-        if odometer is not None and last_odo is not None and odometer < last_odo:
+        went_back = odometer is not None and last_odo is not None and odometer < last_odo
+        if went_back:
             self.problem(
                 rec.record,
                 rec.source,
-                f"odometer {odometer!r} m is below the previous {last_odo!r} m; "
-                "dropped from this record",
+                f"odometer {odometer!r} m is below the previous {last_odo!r} m "
+                "(a new trip's count?): passed on, positioning takes the step on the speed",
                 kept=True,
             )
-            odometer = None
         has_pos = rec.lat is not None and rec.lon is not None
         fix = rec.has_fix and has_pos
         if has_pos:
@@ -142,23 +196,31 @@ class FeedCollector:
             self.problem(rec.record, rec.source, "no position (lat/lon) and none known before")
             return
         speed, course = rec.speed_mps, rec.course_deg
-        if (speed is None or course is None) and last is not None and rec.t > last.t:
-            dt = rec.t - last.t
-            az, _, dist = _GEOD.inv(last.lon, last.lat, lon, lat)
+        if (speed is None or course is None) and last is not None:
             if speed is None:
-                if odometer is not None and last.odometer is not None:
-                    speed = (odometer - last.odometer) / dt
+                if odometer is not None and last.odometer is not None and not went_back:
+                    speed = (odometer - last.odometer) / (rec.t - last.t)
                 elif fix:
-                    speed = dist / dt
+                    speed = _derived_speed(last.trail, rec.t, lat, lon)
             if course is None:
-                course = az % 360.0 if dist / dt >= _COURSE_MIN_SPEED_MPS else last.course
+                derived = _derived_course(last.trail, lat, lon) if fix else None
+                course = last.course if derived is None else derived
+        missing = ""
         if speed is None:
-            self.problem(
-                rec.record, rec.source, "no speed (spd) and no earlier record to derive it from"
-            )
+            missing = "no speed (spd)"
+        elif course is None and speed >= COURSE_MIN_SPEED_MPS:
+            missing = "no course (hdg) while moving"
+        if missing or speed is None:
+            # no report, but the next record derives what it lacks from this one
+            self.problem(rec.record, rec.source, f"{missing} and nothing to derive it from")
+            if odometer is None and last is not None:
+                odometer = last.odometer
+            start = last if last is not None else _Last(rec.t, lat, lon, None, None)
+            self._last[rec.vehicle_id] = start.followed_by(rec.t, lat, lon, fix, course, odometer)
             return
-        if course is None:
-            course = last.course if last is not None else 0.0
+        known_course = course
+        if course is None:  # standing: no course is used below COURSE_MIN_SPEED_MPS
+            course = 0.0
         try:
             report = VehicleReport(
                 vehicle_id=rec.vehicle_id,
@@ -175,7 +237,11 @@ class FeedCollector:
             return
         self.reports.append(report)
         keep_odo = odometer if odometer is not None else (last.odometer if last else None)
-        self._last[rec.vehicle_id] = _Last(rec.t, lat, lon, report.course_deg, keep_odo)
+        # (a made-up standing course is not remembered as one)
+        start = last if last is not None else _Last(rec.t, lat, lon, None, None)
+        self._last[rec.vehicle_id] = start.followed_by(
+            rec.t, lat, lon, fix, None if known_course is None else report.course_deg, keep_odo
+        )
 
     def log(self) -> ReplayLog:
         """The reports in time order (then vehicle id), the problems in file and line order,

@@ -26,9 +26,18 @@ to zero at every new trip. A reading that goes back (:func:`odometer_resets`; co
 next one on the new readings. Taken at face value, the reset step counted as a standstill
 and left a running tram ~9 m behind, confident, for half a minute.
 
+**Odometer glitches.** A step the reported speeds cannot have run (:func:`odometer_glitches`;
+counted, ``odometer_glitch``) is no measurement either: a reading that jumps ahead and
+comes back, one that stands still while the tram runs at 10 m/s (a frozen counter), one
+read in kilometres. Taken at face value, one reading 100 m ahead put the tram 100 m and
+then 200 m ahead, confident, and the right fixes were thrown out as unreachable; a frozen
+counter kept a running tram confident 20-30 m behind. That step too runs on the speeds,
+and the next one on the new readings. The bounds are physics (the speeds at both ends, the
+greatest acceleration) with a margin: they catch what cannot be, not what is unlikely.
+
 >>> import numpy as np
 >>> from antikol import VehicleReport
->>> from antikol.positioning.fleet import RunSinceFix
+>>> from antikol.positioning.fleet import FleetState, RunSinceFix
 >>> last = VehicleReport("T1", 10.0, 50.06, 19.94, 8.0, 90.0, odometer_m=1000.0)
 >>> ran = RunSinceFix(np.array([8.0]), np.array([1.0]), np.array([True]))  # 8 m in 1 s
 >>> stale_fixes(np.array([50.06]), np.array([19.94]), [last], ran, run_m=2.0).tolist()
@@ -37,21 +46,26 @@ and left a running tram ~9 m behind, confident, for half a minute.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
 
-from antikol.positioning.fleet import RunSinceFix
+from antikol.positioning.fleet import FleetState, RunSinceFix
 from antikol.report import VehicleReport
 
-__all__ = ["odometer_resets", "stale_fixes"]
+__all__ = ["odometer_glitches", "odometer_resets", "previous_odometer", "stale_fixes"]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 #: An odometer reading this far below the previous one is a reset, not rounding, m.
 ODOMETER_BACK_M = 1.0
+#: An odometer step may differ from what the speeds allow by this much (the speeds' and the
+#: counter's own errors and rounding), m, plus :data:`ODOMETER_MARGIN_FRACTION` of the run.
+ODOMETER_MARGIN_M = 2.0
+ODOMETER_MARGIN_FRACTION = 0.1
 
 
 def stale_fixes(
@@ -101,3 +115,62 @@ def odometer_resets(odometer_m: FloatArray, before_m: FloatArray) -> BoolArray:
     """
     with np.errstate(invalid="ignore"):
         return np.asarray(odometer_m <= before_m - ODOMETER_BACK_M, dtype=bool)
+
+
+def odometer_glitches(
+    step_m: FloatArray,
+    dt_s: FloatArray,
+    speed_before_mps: FloatArray,
+    speed_mps: FloatArray,
+    *,
+    max_accel_mps2: float,
+    max_speed_mps: float,
+) -> BoolArray:
+    """Which odometer steps no run between the two reports' speeds can explain.
+
+    With speeds ``v0`` and ``v1`` at the ends of ``dt`` and at most ``max_accel_mps2``
+    between them, the run lies between ``min(v0, v1)·dt − a·dt²/2`` (at least 0) and
+    ``max(v0, v1)·dt + a·dt²/2`` (at most ``max_speed_mps·dt``); a step outside that by
+    more than :data:`ODOMETER_MARGIN_M` plus :data:`ODOMETER_MARGIN_FRACTION` of the
+    larger bound is a glitch.
+
+    Parameters
+    ----------
+    step_m : ndarray of float
+        Odometer reading minus the previous report's, m (NaN: no step to judge).
+    dt_s : ndarray of float
+        Time between the two reports, s.
+    speed_before_mps, speed_mps : ndarray of float
+        The reported speeds of the previous report and of this one, m/s.
+    max_accel_mps2, max_speed_mps : float, keyword-only
+        The physical bounds.
+
+    Returns
+    -------
+    ndarray of bool
+
+    >>> odometer_glitches(np.array([10.3, 0.0, 110.0, 0.0]), np.ones(4), np.full(4, 10.0),
+    ...                   np.array([10.0, 10.0, 10.0, 0.0]), max_accel_mps2=3.5,
+    ...                   max_speed_mps=30.0).tolist()
+    [False, True, True, False]
+    """
+    dt = np.maximum(dt_s, 0.0)
+    slack = 0.5 * max_accel_mps2 * dt * dt
+    low = np.maximum(np.minimum(speed_before_mps, speed_mps) * dt - slack, 0.0)
+    high = np.minimum(np.maximum(speed_before_mps, speed_mps) * dt + slack, max_speed_mps * dt)
+    margin = ODOMETER_MARGIN_M + ODOMETER_MARGIN_FRACTION * high
+    with np.errstate(invalid="ignore"):
+        return np.asarray((step_m < low - margin) | (step_m > high + margin), dtype=bool)
+
+
+def previous_odometer(fleet: FleetState, rows: npt.NDArray[np.int64]) -> FloatArray:
+    """The odometer reading of each vehicle's previous report, m (NaN when that report had
+    none: the last reading is older, and its step spans more than one report)."""
+    return np.fromiter(
+        (
+            math.nan if (r := fleet.last[row]) is None or r.odometer_m is None else fleet.odo[row]
+            for row in rows.tolist()
+        ),
+        float,
+        len(rows),
+    )

@@ -61,7 +61,12 @@ from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
-from antikol.positioning.feedfaults import odometer_resets, stale_fixes
+from antikol.positioning.feedfaults import (
+    odometer_glitches,
+    odometer_resets,
+    previous_odometer,
+    stale_fixes,
+)
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import FleetState
@@ -420,8 +425,19 @@ class Positioner:
         # rejected for its time and must not wipe the odometer's baseline)
         reset &= keep
         stale &= keep
-        f.odo[rows[reset]] = f.odo_fix[rows[reset]] = np.nan
-        for name, happened in (("odometer_reset", reset), ("stale_fix", stale)):
+        glitch = (
+            keep
+            & ~reset
+            & odometer_glitches(
+                odo - previous_odometer(f, rows), t - f.t[rows], f.v[rows], speed,
+                max_accel_mps2=c.max_accel_mps2, max_speed_mps=c.max_speed_mps,
+            )
+        )  # fmt: skip
+        unusable = reset | glitch
+        f.odo[rows[unusable]] = f.odo_fix[rows[unusable]] = np.nan
+        for name, happened in (
+            ("odometer_reset", reset), ("odometer_glitch", glitch), ("stale_fix", stale)
+        ):  # fmt: skip
             if happened.any():
                 self.stats[name] += int(np.count_nonzero(happened))
 
