@@ -208,7 +208,9 @@ def test_a_position_frozen_at_a_tunnel_portal_is_no_fix_when_the_tram_stops_insi
             assert p.offset_m == pytest.approx(truth[k], abs=15.0), (k, p)
         if k == 69:
             assert p.status != "confident"  # no fix for a minute, and no odometer
-    assert pos.stats["stale_fix"] == 60
+    # (the reported speed drops from 10 m/s to 0 in a second, and back at the first fix:
+    # carried on the speeds, the tram's speed is current, and physics rejects those jumps)
+    assert pos.stats["stale_fix"] >= 58
     assert p.status == "confident"  # the fixes came back
 
 
@@ -304,3 +306,37 @@ def test_an_odometer_step_any_possible_run_makes_is_no_glitch(v0, accel, dt, sca
         max_accel_mps2=3.5, max_speed_mps=30.0,
     )  # fmt: skip
     assert not glitch[0]
+
+
+@pytest.mark.parametrize("feed_repeats_the_stop", [False, True])
+def test_a_tram_leaving_a_stop_without_fixes_or_odometer_is_carried_on_its_speeds(
+    straight, feed_repeats_the_stop
+):
+    # no odometer; the tram stands 20 s at 200 m, then leaves at 1 m/s² with no usable fix
+    # for 12 s (an underground stop, or a feed that repeats the stop's position): it was
+    # left at the stop, confident, 60 m behind the tram
+    t = np.arange(0.0, 50.0, 1.0)
+    run_s = np.clip(t - 20.0, 0.0, None)
+    speed = np.minimum(run_s, 10.0)
+    along = 200.0 + np.where(run_s <= 10.0, 0.5 * run_s**2, 50.0 + 10.0 * (run_s - 10.0))
+    reports = []
+    for k, tk in enumerate(t):
+        (r,) = reports_along(
+            "V", STRAIGHT_LINE, start_m=float(along[k]), speed_mps=1.0, t=np.array([tk]),
+            frame=FRAME,
+        )  # fmt: skip
+        r = dataclasses.replace(r, speed_mps=float(speed[k]), odometer_m=None)
+        reports.append(r)
+    stop = reports[19]
+    for k in range(21, 33):
+        reports[k] = dataclasses.replace(
+            reports[k],
+            lat=stop.lat,
+            lon=stop.lon,
+            fix_quality=None if feed_repeats_the_stop else 0,
+        )
+    pos = Positioner(straight)
+    for k, r in enumerate(reports):
+        p = pos.update(r)
+        assert p.offset_m == pytest.approx(along[k], abs=4.0), (k, p)
+    assert pos.stats["speed_dead_reckoning"] >= 10

@@ -19,7 +19,7 @@ import numpy as np
 
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fleet import SLOT_FIELDS, FleetState
-from antikol.positioning.kalman import track_odometer_step
+from antikol.positioning.kalman import track_distance_step
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import Hypothesis
 from antikol.report import VehicleReport
@@ -40,38 +40,62 @@ def dead_reckon(
     row: int,
     report: VehicleReport,
     odometer: float,
+    *,
+    speeds: bool = True,
 ) -> None:
-    """A report without a position: advance on the odometer, or only note the time."""
+    """A report without a position: advance on the odometer, else (``speeds``) on the
+    reported speeds, else only note the time.
+
+    Without an odometer the run is the mean of the previous and the reported speed over
+    the interval, known to ``hypot(speed_sigma_mps·dt, speed_distance_sigma_fraction·run)``:
+    a tram that leaves a stop in a tunnel (or while the feed repeats the stop's position)
+    is carried on, not left at the stop, confident, while it runs away.
+    """
     fleet.note_run_without_fix(row, report.t, report.speed_mps)
     fleet.last[row] = report
-    if not math.isfinite(odometer) or not math.isfinite(fleet.odo[row]):
+    by_odometer = math.isfinite(odometer) and math.isfinite(fleet.odo[row])
+    dt = report.t - fleet.t[row]
+    by_speed = (
+        speeds
+        and not by_odometer
+        and dt > 0.0
+        and math.isfinite(fleet.v[row])
+        and fleet.hs[row, 0] >= 0
+    )
+    if not by_odometer and not by_speed:
         stats["no_fix"] += 1
         if math.isfinite(odometer):
             fleet.odo[row] = odometer
         return
-    travelled = max(odometer - fleet.odo[row], 0.0)
-    stats["odometer_dead_reckoning"] += 1
+    held = fleet.hs[row] >= 0
+    if by_odometer:
+        travelled = max(odometer - fleet.odo[row], 0.0)
+        stats["odometer_dead_reckoning"] += 1
+        sigma_m = config.odometer_sigma_fraction * travelled + 0.05
+        # the odometer's scale error is the tram's own, not fresh at every step: the
+        # lag's uncertainty grows with the whole distance run since the last fix
+        since_fix = fleet.odo[row] - fleet.odo_fix[row]
+        since_fix = since_fix if math.isfinite(since_fix) else 0.0
+        frac = config.odometer_sigma_fraction
+        fleet.paa[row, held] += frac * frac * ((since_fix + travelled) ** 2 - since_fix**2)
+    else:
+        travelled = 0.5 * (float(fleet.v[row]) + report.speed_mps) * dt
+        stats["speed_dead_reckoning"] += 1
+        sigma_m = math.hypot(
+            config.speed_sigma_mps * dt, config.speed_distance_sigma_fraction * travelled
+        )
+        fleet.paa[row, held] += sigma_m * sigma_m
     if not math.isnan(fleet.kf.t[row]):
-        track_odometer_step(
-            fleet.kf,
-            row,
-            np.float64(report.t),
-            np.float64(travelled),
-            config.odometer_sigma_fraction,
+        track_distance_step(
+            fleet.kf, row, np.float64(report.t), np.float64(travelled), np.float64(sigma_m)
         )
     carry(fleet, reach, net, row, travelled, report.route)
-    # the odometer's scale error is the tram's own, not fresh at every step: the lag's
-    # uncertainty grows with the whole distance run since the last fix
-    since_fix = fleet.odo[row] - fleet.odo_fix[row]
-    since_fix = since_fix if math.isfinite(since_fix) else 0.0
-    frac = config.odometer_sigma_fraction
-    held = fleet.hs[row] >= 0
-    fleet.paa[row, held] += frac * frac * ((since_fix + travelled) ** 2 - since_fix**2)
     fleet.z[row] += travelled
     waited = report.t - fleet.t[row]
     standing = travelled < config.standstill_distance_m and math.isfinite(waited)
     fleet.stood[row] = fleet.stood[row] + waited if standing else 0.0
-    fleet.odo[row] = odometer
+    if math.isfinite(odometer):
+        fleet.odo[row] = odometer
     fleet.t[row] = report.t
     fleet.v[row] = report.speed_mps  # the wheel speed: the next physics check needs it
 

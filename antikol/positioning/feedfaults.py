@@ -55,7 +55,13 @@ import numpy.typing as npt
 from antikol.positioning.fleet import FleetState, RunSinceFix
 from antikol.report import VehicleReport
 
-__all__ = ["odometer_glitches", "odometer_resets", "previous_odometer", "stale_fixes"]
+__all__ = [
+    "odometer_glitches",
+    "odometer_resets",
+    "previous_odometer",
+    "stale_fixes",
+    "unusable_odometers",
+]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -161,6 +167,32 @@ def odometer_glitches(
     margin = ODOMETER_MARGIN_M + ODOMETER_MARGIN_FRACTION * high
     with np.errstate(invalid="ignore"):
         return np.asarray((step_m < low - margin) | (step_m > high + margin), dtype=bool)
+
+
+def unusable_odometers(
+    fleet: FleetState,
+    rows: npt.NDArray[np.int64],
+    t: FloatArray,
+    speed_mps: FloatArray,
+    odometer_m: FloatArray,
+    *,
+    max_accel_mps2: float,
+    max_speed_mps: float,
+) -> tuple[BoolArray, BoolArray]:
+    """Which new readings reset the odometer (:func:`odometer_resets`) and which others
+    make a step the speeds cannot have run (:func:`odometer_glitches`), against each
+    vehicle's state in ``fleet`` (read only) before the reports of ``rows`` (time ``t``,
+    s; speed, m/s; reading, m)."""
+    reset = odometer_resets(odometer_m, fleet.odo[rows])
+    glitch = ~reset & odometer_glitches(
+        odometer_m - previous_odometer(fleet, rows),
+        t - fleet.t[rows],
+        fleet.v[rows],
+        speed_mps,
+        max_accel_mps2=max_accel_mps2,
+        max_speed_mps=max_speed_mps,
+    )
+    return reset, glitch
 
 
 def previous_odometer(fleet: FleetState, rows: npt.NDArray[np.int64]) -> FloatArray:

@@ -35,6 +35,7 @@ __all__ = [
     "AlongTrackFilter",
     "FilterEstimate",
     "TrackFilterState",
+    "track_distance_step",
     "track_estimate",
     "track_odometer_step",
     "track_predict",
@@ -110,10 +111,23 @@ def track_odometer_step(
     The position moves by ``travelled_m`` with a variance that grows with it, the speed
     becomes ``travelled_m / dt`` (m/s); nothing else is assumed about the motion.
     """
+    d = np.asarray(travelled_m, dtype=float)
+    track_distance_step(st, idx, t_new, d, sigma_fraction * d + 0.05)
+
+
+def track_distance_step(
+    st: TrackFilterState,
+    idx: Any,
+    t_new: npt.ArrayLike,
+    travelled_m: npt.ArrayLike,
+    sigma_m: npt.ArrayLike,
+) -> None:
+    """Advance states by a distance run (m) known to ``sigma_m`` (m): an odometer's, or the
+    reported speeds' integral (:func:`track_odometer_step` is the odometer's case)."""
     dt = np.asarray(t_new, dtype=float) - st.t[idx]
     ok = dt > 0
     d = np.asarray(travelled_m, dtype=float)
-    sig = sigma_fraction * d + 0.05
+    sig = np.asarray(sigma_m, dtype=float)
     v_new = np.where(ok, d / np.where(ok, dt, 1.0), st.v[idx])
     sig_v = np.where(ok, sig / np.where(ok, dt, 1.0), math.sqrt(1e-2))
     st.s[idx] = st.s[idx] + d

@@ -61,12 +61,7 @@ from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
-from antikol.positioning.feedfaults import (
-    odometer_glitches,
-    odometer_resets,
-    previous_odometer,
-    stale_fixes,
-)
+from antikol.positioning.feedfaults import stale_fixes, unusable_odometers
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import FleetState
@@ -388,7 +383,9 @@ class Positioner:
         # faults of the feed: a reset odometer leaves no baseline (this step runs on the
         # speeds), a repeated position while the vehicle runs on is no fix
         f = self._f
-        reset = odometer_resets(odo, f.odo[rows])
+        reset, glitch = unusable_odometers(
+            f, rows, t, speed, odo, max_accel_mps2=c.max_accel_mps2, max_speed_mps=c.max_speed_mps
+        )
         lon = np.fromiter((r.lon for r in reports), float, n)
         lat = np.fromiter((r.lat for r in reports), float, n)
         stale = ~no_fix & stale_fixes(
@@ -423,16 +420,7 @@ class Positioner:
         keep = ~rejected
         # (only now: a report that came late, its odometer behind the last one's, is
         # rejected for its time and must not wipe the odometer's baseline)
-        reset &= keep
-        stale &= keep
-        glitch = (
-            keep
-            & ~reset
-            & odometer_glitches(
-                odo - previous_odometer(f, rows), t - f.t[rows], f.v[rows], speed,
-                max_accel_mps2=c.max_accel_mps2, max_speed_mps=c.max_speed_mps,
-            )
-        )  # fmt: skip
+        reset, glitch, stale = reset & keep, glitch & keep, stale & keep
         unusable = reset | glitch
         f.odo[rows[unusable]] = f.odo_fix[rows[unusable]] = np.nan
         for name, happened in (
@@ -485,19 +473,28 @@ class Positioner:
         if out.any():
             self._f.note_rejected(rows[out], xs[out], ys[out])
         self._commit(reports, rows, t, speed, odo, xs, ys, scored)
-        # an outlier fix leaves the hypotheses as they were: carried on the odometer
-        self._dead_reckon(np.flatnonzero(scored.stuck), reports, rows, odo)
+        # an outlier fix leaves the hypotheses as they were: carried on the odometer (not
+        # on the speeds: the next fix's move spans the outlier's interval)
+        self._dead_reckon(np.flatnonzero(scored.stuck), reports, rows, odo, speeds=False)
 
     def _dead_reckon(
-        self, which: IntArray, reports: list[VehicleReport], rows: IntArray, odo: FloatArray
+        self,
+        which: IntArray,
+        reports: list[VehicleReport],
+        rows: IntArray,
+        odo: FloatArray,
+        *,
+        speeds: bool = True,
     ) -> None:
-        """Carry the vehicles of reports ``which`` on their odometers (no usable fix); the
-        probability of the reported place follows the hypotheses split at switches."""
+        """Carry the vehicles of reports ``which`` on their odometers, else (``speeds``) on
+        their speeds (no usable fix); the probability of the reported place follows the
+        hypotheses split at switches."""
         if not len(which):
             return
+        f, net, c = self._f, self.net, self.config
         for i in which.tolist():
             dead_reckon(
-                self._f, self.reach, self.net, self.config, self.stats, rows[i], reports[i], odo[i]
+                f, self.reach, net, c, self.stats, rows[i], reports[i], odo[i], speeds=speeds
             )
         carried = rows[which]
         self._f.place[carried] = self._place_probabilities(carried)
