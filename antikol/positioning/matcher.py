@@ -420,14 +420,11 @@ class Positioner:
         keep = ~rejected
         # (only now: a report that came late, its odometer behind the last one's, is
         # rejected for its time and must not wipe the odometer's baseline)
-        reset, glitch, stale = reset & keep, glitch & keep, stale & keep
-        unusable = reset | glitch
+        faults = {"odometer_reset": reset & keep, "odometer_glitch": glitch & keep,
+                  "stale_fix": stale & keep}  # fmt: skip
+        unusable = faults["odometer_reset"] | faults["odometer_glitch"]
         f.odo[rows[unusable]] = f.odo_fix[rows[unusable]] = np.nan
-        for name, happened in (
-            ("odometer_reset", reset), ("odometer_glitch", glitch), ("stale_fix", stale)
-        ):  # fmt: skip
-            if happened.any():
-                self.stats[name] += int(np.count_nonzero(happened))
+        self.stats.update({k: int(v.sum()) for k, v in faults.items() if v.any()})
 
         # 2. reports without a position fix: dead reckoning on the odometer, if any
         self._dead_reckon(np.flatnonzero(keep & no_fix), reports, rows, odo)
@@ -478,26 +475,17 @@ class Positioner:
         self._dead_reckon(np.flatnonzero(scored.stuck), reports, rows, odo, speeds=False)
 
     def _dead_reckon(
-        self,
-        which: IntArray,
-        reports: list[VehicleReport],
-        rows: IntArray,
-        odo: FloatArray,
-        *,
-        speeds: bool = True,
-    ) -> None:
-        """Carry the vehicles of reports ``which`` on their odometers, else (``speeds``) on
-        their speeds (no usable fix); the probability of the reported place follows the
+        self, which: IntArray, reports: list[VehicleReport], rows: IntArray, odo: FloatArray,
+        *, speeds: bool = True,
+    ) -> None:  # fmt: skip
+        """Carry the vehicles of reports ``which`` (no usable fix) on their odometers, else
+        (``speeds``) on their speeds; the reported place's probability follows the
         hypotheses split at switches."""
-        if not len(which):
-            return
-        f, net, c = self._f, self.net, self.config
         for i in which.tolist():
-            dead_reckon(
-                f, self.reach, net, c, self.stats, rows[i], reports[i], odo[i], speeds=speeds
-            )
-        carried = rows[which]
-        self._f.place[carried] = self._place_probabilities(carried)
+            dead_reckon(self._f, self.reach, self.net, self.config, self.stats, rows[i],
+                        reports[i], odo[i], speeds=speeds)  # fmt: skip
+        if len(which):
+            self._f.place[rows[which]] = self._place_probabilities(rows[which])
 
     def _commit(
         self,
