@@ -205,18 +205,13 @@ class FeedCollector:
             if course is None:
                 derived = _derived_course(last.trail, lat, lon) if fix else None
                 course = last.course if derived is None else derived
-        missing = ""
-        if speed is None:
-            missing = "no speed (spd)"
-        elif course is None and speed >= COURSE_MIN_SPEED_MPS:
-            missing = "no course (hdg) while moving"
-        if missing or speed is None:
+        keep_odo = odometer if odometer is not None else (last.odometer if last else None)
+        start = last if last is not None else _Last(rec.t, lat, lon, None, None)
+        if speed is None or (course is None and speed >= COURSE_MIN_SPEED_MPS):
             # no report, but the next record derives what it lacks from this one
+            missing = "no speed (spd)" if speed is None else "no course (hdg) while moving"
             self.problem(rec.record, rec.source, f"{missing} and nothing to derive it from")
-            if odometer is None and last is not None:
-                odometer = last.odometer
-            start = last if last is not None else _Last(rec.t, lat, lon, None, None)
-            self._last[rec.vehicle_id] = start.followed_by(rec.t, lat, lon, fix, course, odometer)
+            self._last[rec.vehicle_id] = start.followed_by(rec.t, lat, lon, fix, course, keep_odo)
             return
         known_course = course
         if course is None:  # standing: no course is used below COURSE_MIN_SPEED_MPS
@@ -236,9 +231,7 @@ class FeedCollector:
             self.problem(rec.record, rec.source, str(exc))
             return
         self.reports.append(report)
-        keep_odo = odometer if odometer is not None else (last.odometer if last else None)
         # (a made-up standing course is not remembered as one)
-        start = last if last is not None else _Last(rec.t, lat, lon, None, None)
         self._last[rec.vehicle_id] = start.followed_by(
             rec.t, lat, lon, fix, None if known_course is None else report.course_deg, keep_odo
         )

@@ -91,9 +91,8 @@ def dead_reckon(
         )
     carry(fleet, reach, net, row, travelled, report.route)
     fleet.z[row] += travelled
-    waited = report.t - fleet.t[row]
-    standing = travelled < config.standstill_distance_m and math.isfinite(waited)
-    fleet.stood[row] = fleet.stood[row] + waited if standing else 0.0
+    standing = travelled < config.standstill_distance_m and math.isfinite(dt)
+    fleet.stood[row] = fleet.stood[row] + dt if standing else 0.0
     if math.isfinite(odometer):
         fleet.odo[row] = odometer
     fleet.t[row] = report.t

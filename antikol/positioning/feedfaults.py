@@ -37,7 +37,7 @@ greatest acceleration) with a margin: they catch what cannot be, not what is unl
 
 >>> import numpy as np
 >>> from antikol import VehicleReport
->>> from antikol.positioning.fleet import FleetState, RunSinceFix
+>>> from antikol.positioning.fleet import RunSinceFix
 >>> last = VehicleReport("T1", 10.0, 50.06, 19.94, 8.0, 90.0, odometer_m=1000.0)
 >>> ran = RunSinceFix(np.array([8.0]), np.array([1.0]), np.array([True]))  # 8 m in 1 s
 >>> stale_fixes(np.array([50.06]), np.array([19.94]), [last], ran, run_m=2.0).tolist()
