@@ -8,21 +8,26 @@ that was touched.
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests._fuzz import csv_rows, mutate_csv, try_csv
 
-_TMP = Path(tempfile.mkdtemp(prefix="fuzz-csv-"))
 _ROWS = csv_rows(120)
+
+
+@pytest.fixture(scope="module")
+def work_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder for the module's examples (pytest keeps only the last runs' folders)."""
+    return tmp_path_factory.mktemp("fuzz")
 
 
 @settings(max_examples=200, deadline=None)
 @given(rng=st.randoms(use_true_random=False))
-def test_broken_rows_are_reported_and_the_others_kept(rng):
+def test_broken_rows_are_reported_and_the_others_kept(work_dir, rng):
     data, changed = mutate_csv(_ROWS, rng)
-    outcome = try_csv(data, changed, len(_ROWS), _TMP / "log.csv")
+    outcome = try_csv(data, changed, len(_ROWS), work_dir / "log.csv")
     assert outcome.kind == "accepted", outcome.detail

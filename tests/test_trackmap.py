@@ -335,8 +335,8 @@ def test_candidates_lateral_offset_heading(tmp_path):
 
 @settings(max_examples=30)
 @given(xs=st.lists(st.tuples(st.floats(-60, 60), st.floats(-220, 220)), min_size=1, max_size=15))
-def test_batch_candidates_equal_single(xs):
-    net = _SWITCH_NET
+def test_batch_candidates_equal_single(switch_net, xs):
+    net = switch_net
     x = np.array([p[0] for p in xs])
     y = np.array([p[1] for p in xs])
     lon, lat = net.to_lonlat(x, y)
@@ -351,9 +351,9 @@ def test_batch_candidates_equal_single(xs):
             assert batch.lateral_m[r] == pytest.approx(c.lateral_m)
 
 
-def test_nan_positions_give_no_candidates():
-    x, y = _SWITCH_NET.to_local(*FRAME.to_lonlat(0.0, -10.0))
-    batch = _SWITCH_NET.candidates_batch_xy(np.array([np.nan, x]), np.array([0.0, y]), 5.0)
+def test_nan_positions_give_no_candidates(switch_net):
+    x, y = switch_net.to_local(*FRAME.to_lonlat(0.0, -10.0))
+    batch = switch_net.candidates_batch_xy(np.array([np.nan, x]), np.array([0.0, y]), 5.0)
     assert set(batch.point.tolist()) == {1}
 
 
@@ -431,11 +431,9 @@ def test_check_finds_errors(tmp_path):
     assert check(build(switch_fixture(), tmp_path)).ok
 
 
-_SWITCH_NET = trackmap.build(
-    switch_fixture().write_xml(
-        __import__("pathlib").Path(__import__("tempfile").mkdtemp()) / "s.osm"
-    )
-)
+@pytest.fixture(scope="module")
+def switch_net(tmp_path_factory: pytest.TempPathFactory) -> trackmap.TrackMap:
+    return trackmap.build(switch_fixture().write_xml(tmp_path_factory.mktemp("sw") / "s.osm"))
 
 
 @pytest.fixture(scope="module")
