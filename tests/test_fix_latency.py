@@ -21,6 +21,7 @@ from antikol.positioning.fleet import FleetState
 from antikol.positioning.latency import MAX_LATENCY_S, learn_latency
 from antikol.sim import GpsModel, Simulator, fleet
 from tests._osm import FRAME, straight_fixture
+from trackmap.synthetic import SyntheticNetwork
 
 
 def _speed_profile(t: np.ndarray) -> np.ndarray:
@@ -92,6 +93,30 @@ def test_a_new_lineage_keeps_the_latency_and_restarts_the_offset():
     )  # fmt: skip
     assert float(got[0]) == pytest.approx(learnt)
     assert float(fleet.lc[0]) == pytest.approx(-2000.0 + 12.0 * learnt)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    speed=st.floats(min_value=1.0, max_value=20.0),
+    progress=st.lists(st.floats(min_value=-60.0, max_value=60.0), min_size=2, max_size=8),
+    sigma=st.floats(min_value=0.5, max_value=5.0),
+)
+def test_a_lineage_that_starts_running_learns_no_latency_until_the_speed_changes(
+    speed, progress, sigma
+):
+    # the offset read off the first fix depends on the latency; at one speed a later fix
+    # tells the offset, never the latency (it used to take a wrong lineage's jump for a
+    # latency and keep it: the tram stood 20 m ahead of exact fixes until its next stop)
+    fleet = FleetState(k=1)
+    fleet.grow(1)
+    rows = np.array([0])
+    for k, z in enumerate(progress):
+        got = learn_latency(
+            fleet, rows, np.array([speed]), np.array([speed * k]), np.array([z]),
+            np.array([sigma]), np.array([k == 0]), prior=(0.3, 1.0), offset_rate_m2_s=0.2,
+            dt_s=np.array([1.0]),
+        )  # fmt: skip
+        assert float(got[0]) == pytest.approx(0.3, abs=1e-3)  # (it may drift)
 
 
 def test_a_prior_without_spread_is_the_latency_used():
@@ -166,3 +191,25 @@ def test_the_simulated_receiver_reports_its_fix_a_second_late():
             a[t - 1.0].speed_mps,
         )
         assert b[t].odometer_m == a[t].odometer_m
+
+
+def test_a_course_reversed_for_the_first_reports_leaves_no_lasting_lead():
+    # a tram setting off with its previous trip's course: the first fixes are matched to
+    # the other track of a double track, then the course is right. Its place must be where
+    # its (exact) fixes are from then on, not a latency learnt from the wrong track's jump
+    board = SyntheticNetwork()
+    board.track([(3.1, 0.0), (3.1, 3000.0)], oneway="yes")
+    board.track([(0.0, 3000.0), (0.0, 0.0)], oneway="yes")
+    net = board.build()
+    pos = Positioner(net)
+    errors = []
+    for k in range(40):
+        y = 100.0 + 12.0 * k
+        lon, lat = board.lonlat(3.1, y)
+        course = 180.0 if k < 2 else 0.0
+        p = pos.update(VehicleReport("T1", float(k), lat, lon, 12.0, course, fix_quality=1))
+        x_m, y_m = board.frame.to_local(p.lon, p.lat)
+        if k >= 3:
+            assert abs(float(x_m) - 3.1) < 0.5  # on the northbound track
+        errors.append(float(y_m) - y)
+    assert max(abs(e) for e in errors[3:]) < 2.0

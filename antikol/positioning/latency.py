@@ -105,8 +105,13 @@ def learn_latency(
     if not start.any():
         _update(f, rows, speed_mps, d, r2, dt_s, offset_rate_m2_s)
     else:
-        r = rows[start]
-        f.lc[r], f.lpcc[r], f.lpct[r] = d[start] + speed_mps[start] * f.lt[r], r2[start], 0.0
+        r, v = rows[start], speed_mps[start]
+        # the offset is read off this fix given the latency: it shares the latency's
+        # uncertainty (c = d + v·latency), so a later fix at the same speed says nothing
+        # about the latency, only a change of speed does
+        f.lc[r] = d[start] + v * f.lt[r]
+        f.lpcc[r] = r2[start] + v * v * f.lptt[r]
+        f.lpct[r] = v * f.lptt[r]
         go = ~start
         if go.any():
             _update(f, rows[go], speed_mps[go], d[go], r2[go], dt_s[go], offset_rate_m2_s)
