@@ -17,6 +17,8 @@
 * :mod:`antikol.positioning.fixes` — discrete fixes (balises, loop crossings);
 * :mod:`antikol.positioning.feedfaults` — faults of a feed that no field flags (a position
   repeated while the vehicle runs, an odometer reset);
+* :mod:`antikol.positioning.speedunits` — speeds a feed reports in km/h, knots or mph,
+  told by the vehicle's fixes;
 * :mod:`antikol.positioning.config`, :mod:`antikol.positioning.records` — parameters and
   results.
 """

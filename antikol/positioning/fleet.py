@@ -38,10 +38,12 @@ VEHICLE_FIELDS = (
     "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
     "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood", "rx", "ry",
     "run_nofix", "t_nofix", "v_nofix",
+    "ux", "uy", "utrail", "ut", "uv", "urun", "udisp", "urep", "uscale",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
+    "ux", "uy", "utrail", "ut", "uv",
 )  # fmt: skip
 
 
@@ -93,7 +95,10 @@ class FleetState:
     # how long it has stood at its last fix, s; the local position of the last rejected
     # fix (m, NaN: none yet); the distance run by the reported speeds since the last fix
     # (m), up to the last report without a usable fix, and that report's time (s, NaN:
-    # none since the fix) and speed (m/s)
+    # none since the fix) and speed (m/s); the unit of its speeds
+    # (:mod:`antikol.positioning.speedunits`: the trail's first fix, m, and time, s, the
+    # last report's time, s, and reported speed, the trail's run and the pooled
+    # displacement, m, and run by the reported speeds, and m/s per reported unit)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -114,6 +119,15 @@ class FleetState:
     run_nofix: FloatArray = field(init=False)
     t_nofix: FloatArray = field(init=False)
     v_nofix: FloatArray = field(init=False)
+    ux: FloatArray = field(init=False)
+    uy: FloatArray = field(init=False)
+    utrail: FloatArray = field(init=False)
+    ut: FloatArray = field(init=False)
+    uv: FloatArray = field(init=False)
+    urun: FloatArray = field(init=False)
+    udisp: FloatArray = field(init=False)
+    urep: FloatArray = field(init=False)
+    uscale: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -168,7 +182,8 @@ class FleetState:
         for name in _UNKNOWN_AT_START:
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
-        self.run_nofix[row] = 0.0
+        self.run_nofix[row] = self.urun[row] = self.udisp[row] = self.urep[row] = 0.0
+        self.uscale[row] = 1.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
         self.rejected[row] = self.confident_run[row] = self.gated[row] = 0
         self.unmatched[row] = False

@@ -78,6 +78,7 @@ from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
+from antikol.positioning.speedunits import in_recognised_units, learn_speed_units
 from antikol.report import VehicleReport
 from trackmap import TrackMap
 
@@ -192,6 +193,7 @@ class Positioner:
         list of TrackPosition
             In the order of ``reports`` (empty when ``outputs`` is False).
         """
+        reports = in_recognised_units(self._f, self._row, reports)
         ids = [r.vehicle_id for r in reports]
         passes: list[list[VehicleReport]] = []
         if len(set(ids)) == len(ids):  # one report per vehicle: the usual cycle
@@ -395,6 +397,7 @@ class Positioner:
         no_fix |= stale
         xs, ys = self.net.to_local(lon, lat)
         xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
+        speed = learn_speed_units(f, self.stats, rows, t, speed, xs, ys, ~no_fix)
 
         # 1. physics: reject what a vehicle cannot do (the state stays untouched)
         reason = implausible(self._f, c, rows, (t, speed, xs, ys), no_fix)
@@ -450,20 +453,8 @@ class Positioner:
         def find(x: FloatArray, y: FloatArray, radius: FloatArray) -> Candidates:
             return find_candidates(self.net, self._loops, x, y, radius)
 
-        scored = score_fixes(
-            self._f,
-            self.reach,
-            self.config,
-            find,
-            self.reach.headings.at,
-            reports,
-            rows,
-            t,
-            speed,
-            odo,
-            xs,
-            ys,
-        )
+        scored = score_fixes(self._f, self.reach, self.config, find, self.reach.headings.at,
+                             reports, rows, t, speed, odo, xs, ys)  # fmt: skip
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected
         out = scored.stuck
