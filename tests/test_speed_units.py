@@ -102,7 +102,7 @@ def straight(tmp_path_factory):
     return trackmap.build(straight_fixture().write_xml(tmp_path_factory.mktemp("s") / "s.osm"))
 
 
-def test_a_feed_in_km_h_is_placed_where_its_fixes_are_once_recognised(straight):
+def test_a_feed_in_km_h_is_placed_where_its_fixes_are_once_recognised(straight, caplog):
     # 8 m/s reported as 28.8: rejected as impossible speeds, and the along-track filter
     # ran 20-60 m ahead of exact fixes for as long as the feed lasted
     pos = Positioner(straight)
@@ -114,6 +114,7 @@ def test_a_feed_in_km_h_is_placed_where_its_fixes_are_once_recognised(straight):
         errors.append(FRAME.to_local(p.lon, p.lat)[1] - y)
         speeds.append(p.speed_mps)
     assert pos.stats["speed_unit_km/h"] == 1
+    assert "vehicle 'V'" in caplog.text and "km/h" in caplog.text  # named in the log
     assert not any(name.startswith("rejected_") for name in pos.stats)
     assert np.max(np.abs(errors[40:])) < 1.0
     assert speeds[-1] == pytest.approx(8.0, abs=0.1)

@@ -92,6 +92,8 @@ def learn_speed_units(
     x_m: FloatArray,
     y_m: FloatArray,
     has_fix: BoolArray,
+    *,
+    vehicle_ids: Sequence[str] | None = None,
 ) -> FloatArray:
     """Pool each vehicle's reported speeds against its fixes; judge its speeds' unit.
 
@@ -116,6 +118,8 @@ def learn_speed_units(
         Local position of each report, m.
     has_fix : ndarray of bool
         The report carries a usable position fix.
+    vehicle_ids : sequence of str, optional, keyword-only
+        Each report's vehicle, to name it in the log (else its row).
 
     Returns
     -------
@@ -149,13 +153,13 @@ def learn_speed_units(
     start = done | (fixed & ~anchored)
     r = rows[start]
     f.ux[r], f.uy[r], f.utrail[r], f.urun[r] = x_m[start], y_m[start], t_s[start], 0.0
-    judged = rows[pooled][f.udisp[rows[pooled]] >= MIN_DISPLACEMENT_M]
-    for row in judged.tolist():
-        _judge(f, stats, row)
+    for i in np.flatnonzero(pooled & (f.udisp[rows] >= MIN_DISPLACEMENT_M)).tolist():
+        name = f"row {rows[i]}" if vehicle_ids is None else repr(vehicle_ids[i])
+        _judge(f, stats, int(rows[i]), name)
     return np.asarray(speed * (f.uscale[rows] / before), dtype=np.float64)
 
 
-def _judge(f: FleetState, stats: Counter[str], row: int) -> None:
+def _judge(f: FleetState, stats: Counter[str], row: int, vehicle: str) -> None:
     """Take the unit whose factor is nearest the vehicle's pooled ratio, if near enough."""
     ratio = float(f.udisp[row] / f.urep[row])
     name, factor = min(UNIT_FACTORS.items(), key=lambda u: abs(np.log(ratio / u[1])))
@@ -172,9 +176,9 @@ def _judge(f: FleetState, stats: Counter[str], row: int) -> None:
     f.kf.pvv[row] *= change * change
     stats[f"speed_unit_{name}"] += 1
     logger.warning(
-        "vehicle row %d: its fixes moved %.0f m while its speeds ran %.0f units; its speeds "
+        "vehicle %s: its fixes moved %.0f m while its speeds ran %.0f units; its speeds "
         "are taken to be in %s from now on",
-        row,
+        vehicle,
         f.udisp[row],
         f.urep[row],
         name,
