@@ -11,7 +11,7 @@ import pytest
 
 import trackmap
 from antikol.cli import main
-from antikol.errors import InputFileError, ReplayError
+from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
 from antikol.ingest import detect_log_format, read_gtfs_realtime, read_hfp, read_log
 from antikol.ingest.gtfsrt import write_feed_message
 from antikol.sim import GpsModel, Simulator, fleet
@@ -272,3 +272,38 @@ def test_urban_simulation_round_trips_through_the_replay_csv(tmp_path, capsys):
     capsys.readouterr()
     assert main(["replay", str(out), "-o", str(tmp_path / "e.csv"), "--map", "synthetic"]) == 0
     assert "(csv) of 2 vehicles" in capsys.readouterr().out
+
+
+def test_a_feed_in_km_h_is_read_with_its_speed_unit(simulated, tmp_path, capsys):
+    # GTFS-realtime's speed is m/s, but some producers send km/h: --speed-unit km/h
+    feed = tmp_path / "kmh"
+    feed.mkdir()
+    first = simulated[:20]
+    for k, r in enumerate(first):
+        vehicle = gtfs_vehicle(r) | {"speed": r.speed_mps * 3.6}
+        write_feed_message(feed / f"{k:03d}.pb", [vehicle])
+    as_m_s = read_gtfs_realtime(feed)
+    in_km_h = read_gtfs_realtime(feed, speed_unit="km/h")
+    assert [r.speed_mps for r in in_km_h.reports] == pytest.approx(
+        [r.speed_mps for r in first], abs=1e-4
+    )
+    assert [r.speed_mps for r in as_m_s.reports] == pytest.approx(
+        [3.6 * r.speed_mps for r in first], abs=1e-4
+    )
+    hfp = tmp_path / "kn.jsonl"
+    hfp.write_text("\n".join(json.dumps(_vp(r, spd=r.speed_mps / 0.514444)) for r in first))
+    got = read_log(hfp, speed_unit="kn").reports
+    assert [r.speed_mps for r in got] == pytest.approx([r.speed_mps for r in first], abs=1e-3)
+    with pytest.raises(InvalidArgumentError, match="speed_unit.*km/h"):
+        read_hfp(hfp, speed_unit="furlongs per fortnight")
+    events = tmp_path / "e.csv"
+    args = ["replay", str(feed), "-o", str(events), "--map", "none", "--speed-unit", "km/h"]
+    assert main(args) == 0
+    csv_log = tmp_path / "log.csv"
+    csv_log.write_text("vehicle_id,t,lat,lon,speed_mps,course_deg\nT1,0,50.06,19.94,5,90\n")
+    assert main(["replay", str(csv_log), "--map", "none", "--speed-unit", "km/h"]) == 2
+    assert "--speed-unit is for HFP and GTFS-realtime logs" in capsys.readouterr().err
+    with pytest.raises(InvalidArgumentError, match="csv log"):
+        read_log(csv_log, speed_unit="km/h")
+    assert main(["match", str(csv_log), "--speed-unit", "km/h"]) == 2
+    assert "a csv log's speeds are in m/s" in capsys.readouterr().err

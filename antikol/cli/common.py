@@ -29,6 +29,7 @@ __all__ = [
     "SHOWN_PROBLEMS",
     "ProblemPrinter",
     "add_map_option",
+    "add_speed_unit_option",
     "load_map",
     "non_negative_float",
     "non_negative_int",
@@ -37,6 +38,17 @@ __all__ = [
 ]
 
 # the exit statuses and argparse number types are trackmap's: both programs share one table
+
+
+def add_speed_unit_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--speed-unit`` (the unit of an HFP or GTFS-realtime log's speed field)."""
+    p.add_argument(
+        "--speed-unit",
+        choices=("m/s", "km/h", "kn", "mph"),
+        default="m/s",
+        help="unit of the speed field of an HFP or GTFS-realtime log (default m/s, as their "
+        "specifications say; some GTFS-realtime producers send km/h)",
+    )
 
 
 def add_map_option(p: argparse.ArgumentParser, *, default: str | None) -> None:

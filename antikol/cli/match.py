@@ -19,7 +19,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from antikol.cli.common import ProblemPrinter, add_map_option, load_map, positive_float
+from antikol.cli.common import (
+    ProblemPrinter,
+    add_map_option,
+    add_speed_unit_option,
+    load_map,
+    positive_float,
+)
 from antikol.errors import InputFileError, UsageError
 
 __all__ = ["POSITION_CSV_COLUMNS", "add_parser"]
@@ -101,6 +107,7 @@ def add_parser(sub: Any) -> None:
         help="largest track distance minus odometer increment that agrees, m (default 10)",
     )
     m.add_argument("--strict", action="store_true", help="stop at the first bad record")
+    add_speed_unit_option(m)
     m.add_argument(
         "--rejects",
         type=Path,
@@ -122,7 +129,9 @@ def _match(args: argparse.Namespace) -> int:
             raise InputFileError(f"{out}: cannot write: no directory {out.parent}")
     problems = ProblemPrinter(args.rejects)
     try:
-        log = read_log(args.log, log_format=args.log_format, strict=args.strict)
+        log = read_log(
+            args.log, log_format=args.log_format, strict=args.strict, speed_unit=args.speed_unit
+        )
         for problem in log.problems:
             problems(problem)
     finally:

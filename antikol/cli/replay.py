@@ -14,7 +14,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from antikol.cli.common import ProblemPrinter, add_map_option, load_map, positive_float
+from antikol.cli.common import (
+    ProblemPrinter,
+    add_map_option,
+    add_speed_unit_option,
+    load_map,
+    positive_float,
+)
 from antikol.cli.fleet import add_fleet_options, run_fleet
 from antikol.errors import UsageError
 
@@ -56,6 +62,7 @@ def add_parser(sub: Any) -> None:
         help="analysis period in seconds (default 1)",
     )
     r.add_argument("--strict", action="store_true", help="stop at the first bad row")
+    add_speed_unit_option(r)
     r.add_argument(
         "--html",
         type=Path,
@@ -100,6 +107,8 @@ def _replay(args: argparse.Namespace) -> int:
         raise UsageError("Parquet archives are replayed with --fleet DIR")
     args.log = args.log[0]
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
+    if args.speed_unit != "m/s" and fmt not in ("hfp", "gtfs-rt"):
+        raise UsageError(f"--speed-unit is for HFP and GTFS-realtime logs; {args.log} is {fmt}")
     problems = ProblemPrinter(args.rejects)
     log: ReplayLog | StreamedLog
     try:
@@ -107,7 +116,7 @@ def _replay(args: argparse.Namespace) -> int:
             scan = scan_replay_csv(args.log, strict=args.strict, on_problem=problems)
             log, usable = StreamedLog(args.log, scan), scan.valid
         else:
-            log = read_log(args.log, log_format=fmt, strict=args.strict)
+            log = read_log(args.log, log_format=fmt, strict=args.strict, speed_unit=args.speed_unit)
             for problem in log.problems:
                 problems(problem)
             usable = len(log.reports)

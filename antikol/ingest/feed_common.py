@@ -15,6 +15,8 @@ record at a time and
 * never makes up a course: a moving vehicle's first record without one (nothing to derive
   it from) is no report, noted, but the next record derives its speed and course from it;
 * skips exact repeats of a vehicle's last record time (feeds repeat snapshots), counted;
+* converts the speed field from the feed's unit (``speed_unit``: the specifications say
+  m/s, some GTFS-realtime producers send km/h; :data:`SPEED_UNITS`);
 * turns every invalid value into a :class:`~antikol.ingest.replaylog.RowProblem` naming
   the record and the field — never an exception, never a silent loss (``strict`` raises
   :class:`~antikol.errors.ReplayError` at the first bad record instead).
@@ -24,21 +26,47 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import NamedTuple
 
 from pyproj import Geod
 
-from antikol.errors import InvalidReportError, ReplayError
+from antikol.errors import InvalidArgumentError, InvalidReportError, ReplayError
+from antikol.ingest.nmea_spec import KMH_PER_MPS, KNOT_MPS
 from antikol.ingest.replaylog import ReplayLog, RowProblem
 from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS
 
-__all__ = ["FeedCollector", "FeedRecord"]
+__all__ = ["SPEED_UNITS", "FeedCollector", "FeedRecord", "speed_unit_factor"]
 
 logger = logging.getLogger(__name__)
 
 _GEOD = Geod(ellps="WGS84")
+#: m/s per unit of a speed field, by the unit's name.
+SPEED_UNITS: Mapping[str, float] = MappingProxyType(
+    {"m/s": 1.0, "km/h": 1.0 / KMH_PER_MPS, "kn": KNOT_MPS, "mph": 0.44704}
+)
+
+
+def speed_unit_factor(unit: str) -> float:
+    """m/s per ``unit`` (a name of :data:`SPEED_UNITS`).
+
+    Raises
+    ------
+    InvalidArgumentError
+        An unknown unit (the error names ``speed_unit`` and the units known).
+
+    >>> round(speed_unit_factor("km/h") * 36.0, 6)
+    10.0
+    """
+    factor = SPEED_UNITS.get(unit)
+    if factor is None:
+        raise InvalidArgumentError("speed_unit", unit, f"one of {', '.join(SPEED_UNITS)}")
+    return factor
+
+
 #: A course is derived from two fixes at least this far apart, m: from one second's run
 #: of a tram (a few metres) the fixes' own errors give courses off by tens of degrees.
 _COURSE_BASELINE_M = 15.0
@@ -141,10 +169,13 @@ class FeedCollector:
         Name of the log (a file or directory).
     strict : bool
         Raise :class:`~antikol.errors.ReplayError` at the first bad record.
+    speed_factor : float
+        m/s per unit of the records' speeds (:func:`speed_unit_factor`).
     """
 
     source: str
     strict: bool = False
+    speed_factor: float = 1.0
     reports: list[VehicleReport] = field(default_factory=list)
     problems: list[RowProblem] = field(default_factory=list)
     ignored: dict[str, int] = field(default_factory=dict)
@@ -196,6 +227,8 @@ class FeedCollector:
             self.problem(rec.record, rec.source, "no position (lat/lon) and none known before")
             return
         speed, course = rec.speed_mps, rec.course_deg
+        if speed is not None:
+            speed *= self.speed_factor
         if (speed is None or course is None) and last is not None:
             if speed is None:
                 if odometer is not None and last.odometer is not None and not went_back:

@@ -24,8 +24,9 @@ import os
 from pathlib import Path
 from typing import Final, Literal
 
-from antikol.errors import InputFileError
+from antikol.errors import InputFileError, InvalidArgumentError
 from antikol.ingest.compressed import logical_suffix, read_head
+from antikol.ingest.feed_common import speed_unit_factor
 from antikol.ingest.gtfsrt import GTFS_RT_SUFFIXES, read_gtfs_realtime
 from antikol.ingest.hfp import looks_like_hfp_csv, read_hfp
 from antikol.ingest.replaylog import (
@@ -104,7 +105,11 @@ def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
 
 
 def read_log(
-    path: str | os.PathLike[str], *, log_format: str = "auto", strict: bool = False
+    path: str | os.PathLike[str],
+    *,
+    log_format: str = "auto",
+    strict: bool = False,
+    speed_unit: str = "m/s",
 ) -> ReplayLog:
     """Read a recorded log of any supported format.
 
@@ -115,6 +120,9 @@ def read_log(
         ``auto`` detects it (:func:`detect_log_format`).
     strict : bool
         Stop at the first bad record (NMEA logs: ignored).
+    speed_unit : {"m/s", "km/h", "kn", "mph"}
+        Unit of the speed field of an HFP or GTFS-realtime log (a replay CSV's is m/s by
+        its column's name, NMEA's by its sentences).
 
     Returns
     -------
@@ -124,18 +132,24 @@ def read_log(
     ------
     ValueError
         An unknown format name.
+    InvalidArgumentError
+        An unknown ``speed_unit``, or one other than m/s for a log whose unit is fixed.
     InputFileError, ReplayError
         As the format's reader raises them.
     """
     fmt = detect_log_format(path) if log_format == "auto" else log_format
+    if speed_unit_factor(speed_unit) != 1.0 and fmt in ("csv", "nmea"):
+        raise InvalidArgumentError(
+            "speed_unit", speed_unit, f"a {fmt} log's speeds are in m/s or say their unit"
+        )
     if fmt == "csv":
         return read_replay_csv(path, strict=strict)
     if fmt == "nmea":
         return read_nmea_logs(path)
     if fmt == "hfp":
-        return read_hfp(path, strict=strict)
+        return read_hfp(path, strict=strict, speed_unit=speed_unit)
     if fmt == "gtfs-rt":
-        return read_gtfs_realtime(path, strict=strict)
+        return read_gtfs_realtime(path, strict=strict, speed_unit=speed_unit)
     raise ValueError(
         f"unknown log format {log_format!r}; choose from auto, {', '.join(LOG_FORMATS)}"
     )

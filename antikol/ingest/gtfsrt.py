@@ -30,7 +30,7 @@ from typing import Any, Final
 
 from antikol.errors import InputFileError
 from antikol.ingest.compressed import logical_suffix, read_input
-from antikol.ingest.feed_common import FeedCollector, FeedRecord
+from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor
 from antikol.ingest.replaylog import ReplayLog
 
 __all__ = ["GTFS_RT_SUFFIXES", "feed_message", "read_gtfs_realtime", "write_feed_message"]
@@ -137,7 +137,9 @@ def _entity_record(ent: Any, header_t: int | None, number: int, source: str) -> 
     )
 
 
-def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog:
+def read_gtfs_realtime(
+    path: str | os.PathLike[str], *, strict: bool = False, speed_unit: str = "m/s"
+) -> ReplayLog:
     """Read a GTFS-realtime VehiclePositions recording: one feed file or a directory.
 
     Parameters
@@ -148,6 +150,9 @@ def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) ->
         bzip2 or xz (``.pb.gz``; :mod:`antikol.ingest.compressed`).
     strict : bool
         Raise :class:`~antikol.errors.ReplayError` at the first bad file or entity.
+    speed_unit : {"m/s", "km/h", "kn", "mph"}, keyword-only
+        Unit of ``position.speed`` (default m/s, as the specification says; some producers
+        send km/h; :data:`~antikol.ingest.feed_common.SPEED_UNITS`).
 
     Returns
     -------
@@ -158,9 +163,12 @@ def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) ->
 
     Raises
     ------
+    InvalidArgumentError
+        An unknown ``speed_unit``.
     InputFileError
         The path is missing, an empty directory, or the bindings are not installed.
     """
+    factor = speed_unit_factor(speed_unit)
     from google.protobuf.message import DecodeError
 
     p = Path(path)
@@ -175,7 +183,7 @@ def read_gtfs_realtime(path: str | os.PathLike[str], *, strict: bool = False) ->
     else:
         raise InputFileError(f"{p}: no such file or directory")
     _bindings()
-    out = FeedCollector(str(p), strict=strict)
+    out = FeedCollector(str(p), strict=strict, speed_factor=factor)
     records: list[FeedRecord] = []
     for f in files:
         try:

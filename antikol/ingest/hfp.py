@@ -53,7 +53,7 @@ from typing import Any, Final
 
 from antikol.errors import ReplayError
 from antikol.ingest.compressed import logical_suffix, read_input
-from antikol.ingest.feed_common import FeedCollector, FeedRecord
+from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor
 from antikol.ingest.replaylog import ReplayLog
 
 __all__ = [
@@ -240,7 +240,9 @@ def _csv_records(fh: Any, path: Path) -> Iterator[tuple[int, Any | Exception]]:
         yield reader.line_num, {event or HFP_EVENT: fields}
 
 
-def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog:
+def read_hfp(
+    path: str | os.PathLike[str], *, strict: bool = False, speed_unit: str = "m/s"
+) -> ReplayLog:
     """Read an HFP log: JSON lines, a JSON array of messages, or the CSV archive form.
 
     Parameters
@@ -251,6 +253,9 @@ def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog
         (:mod:`antikol.ingest.compressed`: ``.csv.gz`` is read as CSV).
     strict : bool
         Raise :class:`~antikol.errors.ReplayError` at the first bad record.
+    speed_unit : {"m/s", "km/h", "kn", "mph"}, keyword-only
+        Unit of the speed field (default m/s, as the specification says;
+        :data:`~antikol.ingest.feed_common.SPEED_UNITS`).
 
     Returns
     -------
@@ -261,11 +266,14 @@ def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog
 
     Raises
     ------
+    InvalidArgumentError
+        An unknown ``speed_unit``.
     InputFileError
         The file is missing or unreadable (or compressed and damaged from its start).
     ReplayError
         A CSV header without the HFP fields, or a bad record in strict mode.
     """
+    factor = speed_unit_factor(speed_unit)
     p = Path(path)
     decoded = read_input(p, what="HFP log")
     # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
@@ -276,7 +284,7 @@ def read_hfp(path: str | os.PathLike[str], *, strict: bool = False) -> ReplayLog
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
     )
     messages = _csv_records(io.StringIO(text, newline=""), p) if is_csv else _json_messages(text)
-    out = FeedCollector(str(p), strict=strict)
+    out = FeedCollector(str(p), strict=strict, speed_factor=factor)
     if decoded.problem is not None:  # the records before the cut are read all the same
         out.problem(0, str(p), decoded.problem)
     records: list[FeedRecord] = []

@@ -38,6 +38,7 @@ from dataclasses import replace
 import numpy as np
 import numpy.typing as npt
 
+from antikol.ingest.feed_common import SPEED_UNITS
 from antikol.positioning.fleet import FleetState
 from antikol.report import VehicleReport
 
@@ -60,12 +61,7 @@ IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 
 #: m/s per reported unit, by the unit's name ("m/s": taken as reported).
-UNIT_FACTORS: Mapping[str, float] = {
-    "m/s": 1.0,
-    "kn": 1852.0 / 3600.0,
-    "mph": 0.44704,
-    "km/h": 1.0 / 3.6,
-}
+UNIT_FACTORS: Mapping[str, float] = SPEED_UNITS
 #: A pooled ratio within this fraction of a unit's factor is taken as that unit.
 UNIT_TOLERANCE = 0.15
 #: A trail ends at the first fix this far by the reported speeds (in their unit) ...
