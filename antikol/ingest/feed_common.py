@@ -92,6 +92,8 @@ class FeedRecord:
     lat, lon : float or None
         Degrees.
     speed_mps, course_deg, odometer_m : float or None
+        Speed as the feed gives it (m/s unless the collector's ``speed_factor`` says
+        otherwise), degrees, m.
     has_fix : bool
         The position is a GPS fix (False: odometer, dead reckoning, manual or unknown).
     """
