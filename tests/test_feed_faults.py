@@ -206,8 +206,9 @@ def test_a_position_frozen_at_a_tunnel_portal_is_no_fix_when_the_tram_stops_insi
         p = pos.update(r)
         if p.status == "confident":
             assert p.offset_m == pytest.approx(truth[k], abs=15.0), (k, p)
-        if k == 69:
-            assert p.status != "confident"  # no fix for a minute, and no odometer
+        if k == 69:  # no fix for a minute, no odometer: carried on the reported speeds
+            assert p.status != "lost"
+            assert p.offset_m == pytest.approx(truth[k], abs=15.0)
     # (the reported speed drops from 10 m/s to 0 in a second, and back at the first fix:
     # carried on the speeds, the tram's speed is current, and physics rejects those jumps)
     assert pos.stats["stale_fix"] >= 58
@@ -340,3 +341,23 @@ def test_a_tram_leaving_a_stop_without_fixes_or_odometer_is_carried_on_its_speed
         p = pos.update(r)
         assert p.offset_m == pytest.approx(along[k], abs=4.0), (k, p)
     assert pos.stats["speed_dead_reckoning"] >= 10
+
+
+def test_a_tram_that_keeps_reporting_through_a_long_tunnel_is_not_lost(straight):
+    # no odometer; 90 s without a fix at 10 m/s, each second a report with the wheel speed:
+    # the tram is carried on those speeds, so it is not lost after 30 s (only a position
+    # predicted 30 s past the last report is)
+    pos = Positioner(straight)
+    t = np.arange(0.0, 120.0, 1.0)
+    along = 100.0 + 10.0 * t
+    for k, tk in enumerate(t):
+        (r,) = reports_along(
+            "V", STRAIGHT_LINE, start_m=float(along[k]), speed_mps=10.0, t=np.array([tk]),
+            frame=FRAME,
+        )  # fmt: skip
+        if 20 <= k < 110:
+            r = dataclasses.replace(r, fix_quality=0)
+        p = pos.update(r)
+        assert p.status != "lost", (k, p)
+        assert p.offset_m == pytest.approx(along[k], abs=10.0), (k, p)
+    assert pos.position("V", t=float(t[-1]) + 31.0).status == "lost"

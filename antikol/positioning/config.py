@@ -118,7 +118,9 @@ class PositioningConfig:
     max_rejections_in_row : int
         After this many rejected reports in a row, the vehicle is re-initialised.
     dead_reckoning_s : float
-        Longest outage bridged on speed alone before the position is lost, s.
+        Longest outage bridged on speed alone before the position is lost, s: the time
+        since the last report (reports without a fix carry the vehicle on their speeds,
+        then up to ``odometer_dead_reckoning_m`` of their run, like an odometer).
     odometer_sigma_fraction : float
         Relative error of an odometer's distance (wheel slip and wear).
     odometer_step_sigma_m : float
@@ -128,7 +130,8 @@ class PositioningConfig:
         Relative error of the distance run between two fixes when it comes from the
         reported speeds (their mean times the interval: acceleration in between, curves).
     odometer_dead_reckoning_m : float
-        Longest distance bridged on the odometer alone before the position is lost, m.
+        Longest distance bridged on the odometer (else on the speeds of reports without a
+        fix) alone before the position is lost, m.
     lost_sigma_m : float
         Along-track uncertainty at which a dead-reckoned position is lost, m.
     reset_gap_s : float

@@ -12,7 +12,6 @@ with the same numbers either way (a test compares the two).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -42,6 +41,30 @@ _STATUSES: tuple[PositionStatus, ...] = ("confident", "ambiguous", "lost")
 #: The along-track filter's estimate of each vehicle: position (m along its history),
 #: speed (m/s) and the position's standard deviation (m), parallel arrays.
 Estimate = tuple[FloatArray, FloatArray, FloatArray]
+
+
+def _exhausted(
+    fleet: FleetState, rows: npt.NDArray[np.int64], when_s: npt.ArrayLike, config: PositioningConfig
+) -> npt.NDArray[np.bool_]:
+    """Whether the vehicles' dead reckoning at ``when_s`` (s) has run out: beyond
+    ``odometer_dead_reckoning_m`` on the odometer; without one, beyond ``dead_reckoning_s``
+    past the last report (reports without a fix carry the vehicle on their speeds, so a
+    tram in a tunnel that keeps reporting is not lost after that time, only after the
+    odometer's distance or when its uncertainty passes ``lost_sigma_m``)."""
+    when = np.asarray(when_s, dtype=float)
+    odometer_run = fleet.odo[rows] - fleet.odo_fix[rows]
+    t_nofix = fleet.t_nofix[rows]
+    reported = np.isfinite(t_nofix)
+    since = when - np.where(reported, t_nofix, fleet.t_fix[rows])
+    by_speeds = (since > config.dead_reckoning_s) | (
+        reported & (fleet.run_nofix[rows] > config.odometer_dead_reckoning_m)
+    )
+    return np.asarray(
+        np.where(
+            np.isfinite(odometer_run), odometer_run > config.odometer_dead_reckoning_m, by_speeds
+        ),
+        dtype=bool,
+    )
 
 
 def _confident(place_p: npt.ArrayLike, run: npt.ArrayLike, config: PositioningConfig) -> Any:
@@ -130,13 +153,7 @@ def place_vehicles(
         past + arrivals.nearest_switch_m(edge, direction) <= HOLD_M
     )
     age = when_s - fleet.t_fix[rows]
-    odometer_run = fleet.odo[rows] - fleet.odo_fix[rows]
-    exhausted = np.where(
-        np.isfinite(odometer_run),
-        odometer_run > config.odometer_dead_reckoning_m,
-        age > config.dead_reckoning_s,
-    )
-    lost = exhausted | (s_std > config.lost_sigma_m)
+    lost = _exhausted(fleet, rows, when_s, config) | (s_std > config.lost_sigma_m)
     place_p = fleet.place[rows]
     confident = _confident(place_p, fleet.confident_run[rows], config)
     # the status of each plainly placed vehicle (an index into _STATUSES), -1 the others
@@ -230,11 +247,7 @@ def place_one(
         edge, off, direction, past_m, _ = held
         s_std, place_p = s_std + past_m, float(fleet.place[row])
     age = t - float(fleet.t_fix[row])
-    odometer_run = float(fleet.odo[row] - fleet.odo_fix[row])
-    if math.isfinite(odometer_run):
-        exhausted = odometer_run > c.odometer_dead_reckoning_m
-    else:
-        exhausted = age > c.dead_reckoning_s
+    exhausted = bool(_exhausted(fleet, np.array([row], dtype=np.int64), t, c)[0])
     status: PositionStatus
     if fleet.lost[row] is not None or exhausted or float(s_std) > c.lost_sigma_m:
         status = "lost"
