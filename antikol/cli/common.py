@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from antikol.errors import InputFileError
+from antikol.ingest.feed_common import SPEED_UNITS
 from antikol.ingest.replaylog import RowProblem
 from trackmap.cli import (
     EXIT_INPUT_ERROR,
@@ -44,7 +45,7 @@ def add_speed_unit_option(p: argparse.ArgumentParser) -> None:
     """Add ``--speed-unit`` (the unit of an HFP or GTFS-realtime log's speed field)."""
     p.add_argument(
         "--speed-unit",
-        choices=("m/s", "km/h", "kn", "mph"),
+        choices=tuple(SPEED_UNITS),
         default="m/s",
         help="unit of the speed field of an HFP or GTFS-realtime log (default m/s, as their "
         "specifications say; some GTFS-realtime producers send km/h)",

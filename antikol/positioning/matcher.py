@@ -397,8 +397,7 @@ class Positioner:
         no_fix |= stale
         xs, ys = self.net.to_local(lon, lat)
         xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
-        speed = learn_speed_units(f, self.stats, rows, t, speed, xs, ys, ~no_fix,
-                                  vehicle_ids=[r.vehicle_id for r in reports])  # fmt: skip
+        speed = learn_speed_units(f, self.stats, rows, t, speed, xs, ys, ~no_fix, reports=reports)
 
         # 1. physics: reject what a vehicle cannot do (the state stays untouched)
         reason = implausible(self._f, c, rows, (t, speed, xs, ys), no_fix)

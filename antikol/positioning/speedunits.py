@@ -89,7 +89,7 @@ def learn_speed_units(
     y_m: FloatArray,
     has_fix: BoolArray,
     *,
-    vehicle_ids: Sequence[str] | None = None,
+    reports: Sequence[VehicleReport] | None = None,
 ) -> FloatArray:
     """Pool each vehicle's reported speeds against its fixes; judge its speeds' unit.
 
@@ -114,8 +114,8 @@ def learn_speed_units(
         Local position of each report, m.
     has_fix : ndarray of bool
         The report carries a usable position fix.
-    vehicle_ids : sequence of str, optional, keyword-only
-        Each report's vehicle, to name it in the log (else its row).
+    reports : sequence of VehicleReport, optional, keyword-only
+        The reports, to name a converted vehicle in the log (else its row).
 
     Returns
     -------
@@ -150,7 +150,7 @@ def learn_speed_units(
     r = rows[start]
     f.ux[r], f.uy[r], f.utrail[r], f.urun[r] = x_m[start], y_m[start], t_s[start], 0.0
     for i in np.flatnonzero(pooled & (f.udisp[rows] >= MIN_DISPLACEMENT_M)).tolist():
-        name = f"row {rows[i]}" if vehicle_ids is None else repr(vehicle_ids[i])
+        name = f"row {rows[i]}" if reports is None else repr(reports[i].vehicle_id)
         _judge(f, stats, int(rows[i]), name)
     return np.asarray(speed * (f.uscale[rows] / before), dtype=np.float64)
 
