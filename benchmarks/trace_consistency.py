@@ -1,7 +1,7 @@
 """How well the checks without ground truth (``antikol match``) see positioning's failures.
 
 Run: ``python benchmarks/trace_consistency.py [--seeds 4 5 6] [--trams 12] [--minutes 10]
-[--gps urban feed]``
+[--gps urban feed] [--gps-set NAME=VALUE ...]``
 
 A fleet is simulated on the embedded Kraków map as in ``benchmarks/positioning_accuracy.py``
 and positioned twice: once judged against the simulator's truth
@@ -15,13 +15,16 @@ while its antenna is still behind its route's start, so the no-truth count over 
 is given too), the confident estimates on a wrong track (truth), and the odometer pairs whose track
 distance disagrees with the odometer (no truth). The no-truth checks are a lower bound on
 the failures: a tram matched onto a parallel track that runs its way passes them.
+``--gps-set`` changes fields of the street receivers as in ``positioning_accuracy.py``, e.g.
+``--gps-set course_hold_speed_mps=0.5 course_held_at_start=true`` for receivers that hold
+their course at a standstill, from before the trace began.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from positioning_accuracy import gps_models  # the same receivers (benchmarks/)
+from positioning_accuracy import _street_settings, gps_models  # the same receivers
 
 import trackmap
 from antikol.evaluation.consistency import disconnected_windows, match_reports, trace_consistency
@@ -35,6 +38,13 @@ def main() -> None:
     ap.add_argument("--trams", type=int, default=12)
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--gps", nargs="+", choices=sorted(gps_models()), default=["urban", "feed"])
+    ap.add_argument(
+        "--gps-set",
+        metavar="NAME=VALUE",
+        nargs="+",
+        default=[],
+        help="change UrbanGpsModel fields of the street receivers (urban, feed, late)",
+    )
     args = ap.parse_args()
     net = trackmap.load_default()
     print(
@@ -44,7 +54,7 @@ def main() -> None:
         "| odometer disagrees (no truth) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    models = gps_models()
+    models = gps_models(**_street_settings(args.gps_set))
     for name in args.gps:
         for seed in args.seeds:
             specs = fleet(net, args.trams, seed)

@@ -536,6 +536,29 @@ def test_course_noise_is_larger_at_low_speed(straight):
     assert np.std(err[standing]) > 60.0
 
 
+@pytest.mark.parametrize("model", ["white", "urban"])
+def test_a_receiver_can_hold_the_course_it_had_before_the_trace(straight, model):
+    """A trace cut from a service starts with the tram at a stop: a receiver with static
+    hold reports the running way it measured on the way in, not its first fix's noise."""
+    spec = TramSpec("S", straight_route(straight, 100.0), stops=())
+    make = GpsModel if model == "white" else GpsModel.urban
+
+    def courses(held: bool) -> list[float]:
+        errors = []
+        for seed in range(12):
+            gps = make(course_hold_speed_mps=0.5, course_held_at_start=held)
+            sim = Simulator(straight, [spec], gps=gps, seed=seed, dt_s=1.0)
+            log = sim.run(30.0).fixes["S"]
+            first = int(np.flatnonzero(log.available & (log.true_speed_mps == 0.0))[0])
+            errors.append((log.course_deg[first] - log.true_course_deg[first] + 180) % 360 - 180)
+        return errors
+
+    held = courses(True)
+    assert max(abs(e) for e in held) < 4.0 * 2.0  # the running way, with the course noise
+    # a cold start holds its first fix's course: noise at a standstill
+    assert np.std(courses(False)) > 30.0
+
+
 # -- reproducibility ----------------------------------------------------------------------
 def test_same_seed_same_reports_and_trams_are_independent(straight):
     one = TramSpec("T1", straight_route(straight, 1500.0), stops=((700.0, 10.0),))

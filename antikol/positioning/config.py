@@ -55,7 +55,15 @@ class PositioningConfig:
     course_outlier_weight : float
         Weight of the uniform floor of the course likelihood.
     min_speed_for_course_mps : float
-        Below this speed the course carries no weight, m/s.
+        Below this speed the course carries no weight, m/s, except at a standing start.
+    start_course_max_speed_mps, start_course_sigma_deg, start_course_outlier_weight : float
+        A vehicle that starts afresh below ``start_course_max_speed_mps`` (m/s) has its
+        course compared once with the track's running way, at ``start_course_sigma_deg``
+        degrees and with a floor of weight ``start_course_outlier_weight``: most receivers
+        hold the last course they measured while moving, which breaks the tie between the
+        two tracks of a double track at a standstill. The default floor caps it at odds of
+        about 2 to 1, below ``confidence``: a double-ended tram holds its previous trip's
+        course, a receiver without static hold a random one.
     wrong_way_entry_log_prior : float
         Log-probability of starting to run against a one-way track (a move onto it, or the
         first fix of a vehicle): wrong-way running is rare and must be earned.
@@ -189,6 +197,9 @@ class PositioningConfig:
     course_noise_deg_mps: float = 20.0
     course_outlier_weight: float = 0.02
     min_speed_for_course_mps: float = 2.0
+    start_course_max_speed_mps: float = 0.5
+    start_course_sigma_deg: float = 15.0
+    start_course_outlier_weight: float = 0.9
     wrong_way_entry_log_prior: float = math.log(1e-3)
     wrong_way_log_prior: float = -0.5
     reversal_log_prior: float = math.log(1e-4)
@@ -261,6 +272,7 @@ class PositioningConfig:
             "switch_probability",
             "standing_switch_probability",
             "outlier_weight",
+            "start_course_outlier_weight",
         ):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")

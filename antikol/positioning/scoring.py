@@ -181,6 +181,16 @@ def score_fixes(
     course_ll = np.where(
         use_course[cv], _course_ll(diff, course_sigma[cv], c.course_outlier_weight), 0.0
     )
+    # a vehicle that starts afresh at a standstill has nothing else to tell the two tracks
+    # of a double track apart: the course its receiver holds (the last one measured while
+    # moving) breaks the tie, once and weakly (it may be a previous trip's or random)
+    start_course = fresh & (speed < c.start_course_max_speed_mps)
+    if start_course.any():
+        course_ll = np.where(
+            start_course[cv],
+            _course_ll(diff, c.start_course_sigma_deg, c.start_course_outlier_weight),
+            course_ll,
+        )
     h = np.radians(heading)
     nx, ny = -np.cos(h), np.sin(h)  # left normal of the edge's vertex order
     sign = direction.astype(float)

@@ -33,6 +33,7 @@ __all__ = [
     "held_course",
     "make_reports",
     "noise_generators",
+    "start_course",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -211,18 +212,42 @@ def blocked_after_tunnels(tunnel: BoolArray, t_s: FloatArray, reacquire_s: float
 
 
 def held_course(
-    raw_course: FloatArray, speed: FloatArray, idx: IntArray, hold_speed_mps: float
+    raw_course: FloatArray,
+    speed: FloatArray,
+    idx: IntArray,
+    hold_speed_mps: float,
+    *,
+    held_before: float | None = None,
 ) -> FloatArray:
     """Reported course at the epochs ``idx`` (NaN elsewhere): below ``hold_speed_mps`` of
-    measured speed the receiver holds its last course (static hold)."""
+    measured speed the receiver holds its last course (static hold), from the start
+    ``held_before`` (degrees) if given (what it measured before the trace began)."""
     course = np.full(len(raw_course), np.nan)
-    last_course: float | None = None
+    last_course = held_before if hold_speed_mps > 0.0 else None
     for m in idx.tolist():
         c = float(raw_course[m])
         if last_course is not None and speed[m] < hold_speed_mps:
             c = last_course
         course[m] = last_course = c
     return course
+
+
+def start_course(
+    held: bool,
+    heading_rad: FloatArray,
+    convergence_deg: FloatArray | float,
+    *,
+    course_sigma_deg: float,
+    course_noise: FloatArray,
+) -> float | None:
+    """The course a receiver holds before its first epoch, degrees (None: not ``held``):
+    the running way at the first epoch (grid heading ``heading_rad`` plus the meridian
+    convergence) with ``course_sigma_deg`` times the first epoch's unit ``course_noise``."""
+    if not held or not len(heading_rad):
+        return None
+    convergence = float(np.atleast_1d(convergence_deg)[0])
+    noise = course_sigma_deg * float(course_noise[0])
+    return (math.degrees(float(heading_rad[0])) + convergence + noise) % 360.0
 
 
 def make_reports(

@@ -28,6 +28,7 @@ from antikol.sim.epochs import (
     epochs,
     held_course,
     make_reports,
+    start_course,
 )
 from antikol.sim.track import Track
 from antikol.sim.truth import FixLog, Truth
@@ -72,14 +73,17 @@ class GpsModel:
     a standard deviation of about ``sqrt(course_sigma_deg² + degrees(speed_sigma_mps/v)²)``
     (2.1° at 10 m/s, 6.1° at 1 m/s, 12° at 0.5 m/s with the defaults). Below
     ``course_hold_speed_mps`` of *measured* speed the receiver holds its last course, as
-    receivers with static hold do (the first fix keeps its noisy course); set it to 0 for
-    a course that wanders at random when standing.
+    receivers with static hold do; set it to 0 for a course that wanders at random when
+    standing. With ``course_held_at_start`` the receiver holds from the start the course
+    it measured before the trace began (the tram's running way plus the course noise: a
+    trace cut from a service, the tram standing at a stop); without, a tram that starts
+    standing reports its first fix's noisy course (a cold start).
 
     Attributes
     ----------
     sigma_m, bias_sigma_m, bias_tau_s, outlier_rate, outlier_sigma_m, missing_rate,
     tunnel_dropout, tunnel_reacquire_s, rate_hz, speed_sigma_mps, course_sigma_deg,
-    course_hold_speed_mps
+    course_hold_speed_mps, course_held_at_start
         As above (metres, seconds, probabilities per fix, Hz, m/s, degrees).
     fix_quality : int or None
         GGA fix quality the receiver reports with every fix (``None``: not reported), e.g.
@@ -98,6 +102,7 @@ class GpsModel:
     speed_sigma_mps: float = 0.1
     course_sigma_deg: float = 2.0
     course_hold_speed_mps: float = 0.5
+    course_held_at_start: bool = False
     fix_quality: int | None = None
 
     def __post_init__(self) -> None:
@@ -211,7 +216,11 @@ def observe(
     if gps.tunnel_dropout and tunnel.any():
         available &= ~blocked_after_tunnels(tunnel, tf, gps.tunnel_reacquire_s)
     idx = np.flatnonzero(available)
-    course = held_course(raw_course, speed, idx, gps.course_hold_speed_mps)
+    course = held_course(
+        raw_course, speed, idx, gps.course_hold_speed_mps,
+        held_before=start_course(gps.course_held_at_start, theta, conv,
+                                 course_sigma_deg=gps.course_sigma_deg, course_noise=z[:, 8]),
+    )  # fmt: skip
     log = FixLog(
         vehicle_id=spec.vehicle_id,
         t_s=tf,

@@ -44,6 +44,7 @@ from antikol.sim.epochs import (
     epochs,
     held_course,
     make_reports,
+    start_course,
 )
 from antikol.sim.places import double_track_share, map_cache
 from antikol.sim.track import Track
@@ -88,7 +89,9 @@ class UrbanGpsModel:
     Speed and course are those of a Doppler velocity with N(0, ``speed_sigma_mps``²) noise
     per axis, plus N(0, ``course_sigma_deg``²) on the course (see
     :class:`~antikol.sim.gps.GpsModel`); below ``course_hold_speed_mps`` the receiver holds
-    its course (0: no hold, the course is meaningless at standstill).
+    its course (0: no hold, the course is meaningless at standstill); with
+    ``course_held_at_start`` it holds from the start the course it measured before the
+    trace began (see :class:`~antikol.sim.gps.GpsModel`).
 
     The odometer (``odometer``) reads the distance travelled by the front times
     ``1 + ε``, ``ε ~ N(0, odometer_scale_sigma²)`` per tram, from a random origin,
@@ -107,7 +110,7 @@ class UrbanGpsModel:
     sigma_m, tail_dof, bias_open_m, bias_canyon_lateral_m, bias_canyon_along_m, bias_tau_s,
     jump_interval_s, outlier_rate, outlier_sigma_m, dropout_open_hz, dropout_canyon_hz,
     dropout_mean_s, missing_rate, tunnel_dropout, tunnel_reacquire_s, rate_hz,
-    speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, odometer,
+    speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, course_held_at_start, odometer,
     odometer_scale_sigma, odometer_resolution_m, report_without_fix, fix_quality_field,
     latency_s
         As above (metres, seconds, Hz, probabilities, m/s, degrees).
@@ -138,6 +141,7 @@ class UrbanGpsModel:
     speed_sigma_mps: float = 0.15
     course_sigma_deg: float = 2.0
     course_hold_speed_mps: float = 0.0
+    course_held_at_start: bool = False
     odometer: bool = True
     odometer_scale_sigma: float = 0.005
     odometer_resolution_m: float = 0.1
@@ -330,7 +334,11 @@ def observe_urban(
     if gps.tunnel_dropout and ep.tunnel.any():
         available &= ~blocked_after_tunnels(ep.tunnel, tf, gps.tunnel_reacquire_s)
     fix_idx = np.flatnonzero(available)
-    course = held_course(raw_course, speed, fix_idx, gps.course_hold_speed_mps)
+    course = held_course(
+        raw_course, speed, fix_idx, gps.course_hold_speed_mps,
+        held_before=start_course(gps.course_held_at_start, th, ep.convergence_deg,
+                                 course_sigma_deg=gps.course_sigma_deg, course_noise=z[:, 10]),
+    )  # fmt: skip
     # odometer: distance of the front with a scale error, from a random origin
     odometer: FloatArray | None = None
     if gps.odometer and n:
