@@ -53,7 +53,7 @@ def gps_models(**street: float | bool) -> dict[str, GpsModel]:
     }
 
 
-def _street_settings(settings: list[str]) -> dict[str, float | bool]:
+def street_settings(settings: list[str]) -> dict[str, float | bool]:
     """``NAME=VALUE`` settings of the street receivers (numbers, ``true`` or ``false``)."""
     from antikol.sim.urban_gps import UrbanGpsModel
 
@@ -78,6 +78,18 @@ def _street_settings(settings: list[str]) -> dict[str, float | bool]:
     except ValueError as exc:
         raise SystemExit(f"--gps-set: {exc}") from None
     return changes
+
+
+def add_street_option(ap: argparse.ArgumentParser) -> None:
+    """``--gps-set NAME=VALUE ...``: fields of the street receivers (see
+    :func:`street_settings`)."""
+    ap.add_argument(
+        "--gps-set",
+        metavar="NAME=VALUE",
+        nargs="+",
+        default=[],
+        help="change UrbanGpsModel fields of the street receivers (urban, feed, late)",
+    )
 
 
 def _config(settings: list[str]) -> PositioningConfig:
@@ -121,17 +133,11 @@ def main() -> None:
         default=[],
         help="change PositioningConfig fields for the run",
     )
-    ap.add_argument(
-        "--gps-set",
-        metavar="NAME=VALUE",
-        nargs="+",
-        default=[],
-        help="change UrbanGpsModel fields of the street receivers (urban, feed, late)",
-    )
+    add_street_option(ap)
     ap.add_argument("--figure", help="write the reliability diagram to this PNG")
     args = ap.parse_args()
     config = _config(args.set)
-    street = _street_settings(args.gps_set)
+    street = street_settings(args.gps_set)
     net = trackmap.load_default()
     results: dict[str, list[PositioningScore]] = {}
     print(

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import argparse
 
-from positioning_accuracy import _street_settings, gps_models  # the same receivers
+from positioning_accuracy import add_street_option, gps_models, street_settings  # same receivers
 
 import trackmap
 from antikol.evaluation.consistency import disconnected_windows, match_reports, trace_consistency
@@ -38,13 +38,7 @@ def main() -> None:
     ap.add_argument("--trams", type=int, default=12)
     ap.add_argument("--minutes", type=float, default=10.0)
     ap.add_argument("--gps", nargs="+", choices=sorted(gps_models()), default=["urban", "feed"])
-    ap.add_argument(
-        "--gps-set",
-        metavar="NAME=VALUE",
-        nargs="+",
-        default=[],
-        help="change UrbanGpsModel fields of the street receivers (urban, feed, late)",
-    )
+    add_street_option(ap)
     args = ap.parse_args()
     net = trackmap.load_default()
     print(
@@ -54,7 +48,7 @@ def main() -> None:
         "| odometer disagrees (no truth) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    models = gps_models(**_street_settings(args.gps_set))
+    models = gps_models(**street_settings(args.gps_set))
     for name in args.gps:
         for seed in args.seeds:
             specs = fleet(net, args.trams, seed)
