@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 import trackmap
 from antikol import VehicleReport
+from antikol.errors import InvalidArgumentError
 from antikol.positioning import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from tests._osm import FRAME, OsmBuilder
@@ -114,3 +115,13 @@ def test_a_standing_start_course_alone_never_makes_a_position_confident(
     for r, _ in _start_at_a_stop(SPACING_M / 2.0, course, seed=seed, stand_s=60)[:60]:
         p = pos.update(r)
         assert p.probability < CONFIDENCE and p.status != "confident", (course, r.t)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("start_course_sigma_deg", 0.0), ("start_course_outlier_weight", 1.5),
+     ("start_course_max_speed_mps", -1.0)],
+)  # fmt: skip
+def test_start_course_settings_are_checked(name, value):
+    with pytest.raises(InvalidArgumentError, match=name):
+        PositioningConfig(**{name: value})

@@ -260,6 +260,7 @@ class PositioningConfig:
             "rtk_float_sigma_m",
             "rtk_sigma_m",
             "standstill_evidence_s",
+            "start_course_sigma_deg",
         ):
             if getattr(self, name) <= 0.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
