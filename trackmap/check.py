@@ -29,7 +29,11 @@ Warnings:
 Notes (facts about the map, not problems):
 
 * ``map_boundary`` — a node where the source's extract cut a way: the track goes on
-  beyond the map there (see :func:`trackmap.build`).
+  beyond the map there (see :func:`trackmap.build`);
+* ``inferred_direction`` — an edge whose running direction no tag gives: the builder took
+  it from the driving side (untagged double track) or from its one-way neighbours. Where
+  vehicles really run both ways (single-line working), tag the ways: positioning holds a
+  vehicle to the inferred direction, and a head-on meeting there would be missed.
 """
 
 from __future__ import annotations
@@ -218,6 +222,7 @@ def check(
                     )
                 )
     boundary = _boundaries(net, report)
+    _inferred_directions(net, report, at)
     _dangling(net, snap_m, report, boundary)
     _geometry(net, report, at, max_edge_m, bounds_margin_m)
     comps = net.components()
@@ -280,6 +285,29 @@ def _boundaries(net: TrackMap, report: CheckReport) -> set[int]:
             )
         )
     return set(ways)
+
+
+def _inferred_directions(
+    net: TrackMap, report: CheckReport, at: Callable[[float, float], tuple[float, float]]
+) -> None:
+    """Note the edges whose running direction was inferred rather than tagged."""
+    why = {
+        "driving_side": f"the driving side ({net.metadata.driving_side})",
+        "propagated": "its one-way neighbours",
+    }
+    for e in net.edges:
+        if e.direction_source in why:
+            lon, lat = at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+            report.notes.append(
+                Finding(
+                    "inferred_direction",
+                    f"edge {e.edge_id} (ways {list(e.way_ids)}): no tag gives its running "
+                    f"direction, taken from {why[e.direction_source]}",
+                    lon,
+                    lat,
+                    (e.edge_id,),
+                )
+            )
 
 
 def _geometry(
