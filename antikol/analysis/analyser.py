@@ -136,7 +136,7 @@ class AnalyserConfig:
     max_hypotheses: int = 3
     min_hypothesis_probability: float = 0.01
     wrong_way_evidence_s: float = 10.0
-    window_slack_s: float = 3.0
+    window_slack_s: float = 6.0
     merge_accel_mps2: float = 1.0
     merge_max_speed_mps: float = 14.0
     stopped_speed_mps: float = STANDING_SPEED_MPS
