@@ -173,7 +173,7 @@ def check(
             )
     for e in net.edges:
         if e.length_m < min_edge_m:
-            lon, lat = at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+            lon, lat = _middle(e, at)
             report.errors.append(
                 Finding(
                     "short_edge",
@@ -287,6 +287,11 @@ def _boundaries(net: TrackMap, report: CheckReport) -> set[int]:
     return set(ways)
 
 
+def _middle(e: Edge, at: Callable[[float, float], tuple[float, float]]) -> tuple[float, float]:
+    """The middle of an edge along its line, degrees (lon, lat)."""
+    return at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+
+
 def _inferred_directions(
     net: TrackMap, report: CheckReport, at: Callable[[float, float], tuple[float, float]]
 ) -> None:
@@ -297,7 +302,7 @@ def _inferred_directions(
     }
     for e in net.edges:
         if e.direction_source in why:
-            lon, lat = at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+            lon, lat = _middle(e, at)
             report.notes.append(
                 Finding(
                     "inferred_direction",
@@ -321,7 +326,7 @@ def _geometry(
     bounds = net.metadata.source.get("bounds")
     for e in net.edges:
         limit = max_edge_m if max_edge_m is not None else MAX_EDGE_M.get(e.kind, _MAX_EDGE_OTHER_M)
-        mid = at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+        mid = _middle(e, at)
         if e.length_m > limit:
             report.errors.append(
                 Finding(
