@@ -10,7 +10,8 @@ restarted filter — the reported position — jumped with it, then back a secon
 first gated innovation is taken as an outlier: the measurement is dropped and the filter keeps
 its prediction. Only a second one in a row (the position really is elsewhere) restarts it.
 A fix that is older than its report (:mod:`antikol.positioning.latency`) is taken as the
-place the vehicle had then, plus the distance it has run since at its reported speed.
+place the vehicle had then, plus the distance it has run since at its reported speed. Each
+fix also teaches the vehicle's odometer scale (:mod:`antikol.positioning.odometerscale`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.kalman import track_odometer_step, track_predict, track_update
 from antikol.positioning.latency import learn_latency
+from antikol.positioning.odometerscale import learn_odometer_scale
 
 __all__ = ["run_track_filters"]
 
@@ -79,6 +81,13 @@ def run_track_filters(
         dt_s=np.where(np.isfinite(since_fix), since_fix, 0.0),
     )
     progress = progress + speed * latency
+    # the scale from the fixes' places where the vehicle was when reported (a late fix falls
+    # behind by its speed times the latency, a deficit that is no scale); the previous
+    # reading is NaN where this step's odometer was found no measurement
+    learn_odometer_scale(
+        fleet, done, odo, progress, along, restart, np.isfinite(fleet.odo[done]),
+        prior_sigma=c.odometer_scale_sigma,
+    )  # fmt: skip
     reset = restart | np.isnan(kf.t[done])
     r = done[reset]
     kf.t[r], kf.s[r], kf.v[r] = t[reset], progress[reset], speed[reset]

@@ -130,7 +130,11 @@ class PositioningConfig:
         since the last report (reports without a fix carry the vehicle on their speeds,
         then up to ``odometer_dead_reckoning_m`` of their run, like an odometer).
     odometer_sigma_fraction : float
-        Relative error of an odometer's distance (wheel slip and wear).
+        Relative error of an odometer's distance once its scale is learnt (wheel slip).
+    odometer_scale_sigma : float
+        Standard deviation of an odometer's scale error before its fixes are seen (a worn
+        wheel, a diameter set wrong): each vehicle's scale is learnt from its fixes
+        (:mod:`antikol.positioning.odometerscale`); 0 takes the odometer as it reads.
     odometer_step_sigma_m : float
         Error of one odometer increment between two fixes beyond the relative one
         (resolution, timing), m.
@@ -219,6 +223,7 @@ class PositioningConfig:
     dead_reckoning_s: float = 30.0
     odometer_sigma_fraction: float = 0.01
     odometer_step_sigma_m: float = 0.25
+    odometer_scale_sigma: float = 0.03
     speed_distance_sigma_fraction: float = 0.03
     odometer_dead_reckoning_m: float = 2000.0
     lost_sigma_m: float = 60.0

@@ -39,11 +39,13 @@ VEHICLE_FIELDS = (
     "run", "lc", "lt", "lpcc", "lpct", "lptt", "stood", "rx", "ry",
     "run_nofix", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "urun", "udisp", "urep", "uscale",
+    "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
+    "opxx", "opxy", "oscale",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
-    "ux", "uy", "utrail", "ut", "uv",
+    "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf",
 )  # fmt: skip
 
 
@@ -98,7 +100,11 @@ class FleetState:
     # none since the fix) and speed (m/s); the unit of its speeds
     # (:mod:`antikol.positioning.speedunits`: the trail's first fix, m, and time, s, the
     # last report's time, s, and reported speed, the trail's run and the pooled
-    # displacement, m, and run by the reported speeds, and m/s per reported unit)
+    # displacement, m, and run by the reported speeds, and m/s per reported unit); its
+    # odometer's scale (:mod:`antikol.positioning.odometerscale`: the last raw and
+    # corrected readings, the raw reading and lineage progress at the last fix, m, the
+    # pooled raw run, m, the current run of fixes' regression of progress on the
+    # odometer and the pooled one of the runs before, and the scale)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -128,6 +134,21 @@ class FleetState:
     udisp: FloatArray = field(init=False)
     urep: FloatArray = field(init=False)
     uscale: FloatArray = field(init=False)
+    oraw: FloatArray = field(init=False)
+    ocor: FloatArray = field(init=False)
+    olf: FloatArray = field(init=False)
+    zlf: FloatArray = field(init=False)
+    osum: FloatArray = field(init=False)
+    ox: FloatArray = field(init=False)
+    oy: FloatArray = field(init=False)
+    orn: FloatArray = field(init=False)
+    omx: FloatArray = field(init=False)
+    omy: FloatArray = field(init=False)
+    ocxx: FloatArray = field(init=False)
+    ocxy: FloatArray = field(init=False)
+    opxx: FloatArray = field(init=False)
+    opxy: FloatArray = field(init=False)
+    oscale: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -183,7 +204,9 @@ class FleetState:
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
         self.run_nofix[row] = self.urun[row] = self.udisp[row] = self.urep[row] = 0.0
-        self.uscale[row] = 1.0
+        self.uscale[row] = self.oscale[row] = 1.0
+        for name in ("osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy"):
+            getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
         self.rejected[row] = self.confident_run[row] = self.gated[row] = 0
         self.unmatched[row] = False
