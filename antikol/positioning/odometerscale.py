@@ -55,7 +55,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 
-#: The pooled sums are halved when the odometer's sum passes this, m.
+#: The pooled fit of the runs before is halved when the pooled odometer run passes this, m.
 POOL_M = 5000.0
 #: The learnt scale stays within 1 ± this (a reading further off is no odometer).
 MAX_SCALE_ERROR = 0.25
