@@ -87,11 +87,13 @@ def corrected_odometers(fleet: FleetState, rows: IntArray, raw_m: FloatArray) ->
         increment (the raw reading itself at a vehicle's first one); NaN where none.
     """
     raw = np.asarray(raw_m, dtype=float)
+    have = np.isfinite(raw)
+    if not have.any():  # (most feeds have no odometer: nothing to read or keep)
+        return raw
     last_raw = fleet.oraw[rows]
     known = np.isfinite(raw) & np.isfinite(last_raw)
     scaled = fleet.ocor[rows] + fleet.oscale[rows] * (raw - np.where(known, last_raw, 0.0))
     out = np.where(known, scaled, raw)
-    have = np.isfinite(raw)
     fleet.oraw[rows[have]] = raw[have]
     fleet.ocor[rows[have]] = out[have]
     return np.asarray(out, dtype=np.float64)
@@ -136,6 +138,8 @@ def learn_odometer_scale(
         Standard deviation of the scale error before any fix (0: no learning).
     """
     has = np.isfinite(odometer_m)
+    if not has.any() and not np.isfinite(fleet.olf[rows]).any():
+        return  # no odometer now nor at the last fixes: no run to end or go on
     raw = np.where(has, fleet.oraw[rows], np.nan)
     d_raw = raw - fleet.olf[rows]
     d_z = progress_m - fleet.zlf[rows]
