@@ -40,6 +40,7 @@ _OUTLIER_STANDING = "an_outlier_while_standing_at_a_node.json"
 _CURVE_PAIR = "two_tracks_one_way_through_a_curve.json"
 _SWUNG_BELIEF = "a_swung_belief_before_an_outage.json"
 _PAST_A_JUNCTION = "an_outage_past_a_switch_and_a_junction.json"
+_BEYOND_RADIUS = "a_fix_beyond_the_search_radius_of_a_learnt_bias.json"
 
 
 @pytest.fixture(scope="module")
@@ -442,6 +443,20 @@ def test_a_bias_jump_onto_the_other_direction_track_is_no_wrong_way_running():
     out = _replay_recorded(trackmap.load_default(), _BIAS_JUMP, "T05")
     settled = out[10:]  # from t = 570 s, the fixes 10 m beside the track for 20 s
     assert {(p.edge_id, p.direction) for p in settled} == {(out[0].edge_id, out[0].direction)}
+    assert not any(p.wrong_way for p in out)
+    assert all(p.status == "confident" for p in settled)
+
+
+def test_a_fix_beyond_the_search_radius_of_its_track_keeps_a_learnt_bias_hypothesis():
+    # street GPS with a strong multipath bias: a tram starts on 373 with its fixes 11-13 m
+    # off it towards 125, the other direction's track (3.9 m away). Its hypothesis learnt
+    # the bias; at t = 65 s the heavy tail put one fix 25.2 m from 373 and 21.3 m from
+    # 125. The candidates were searched 25 m around the fix: 373 was none, its hypothesis
+    # died and the wrong-way one on 125 (0.3 %) was left holding everything: the tram was
+    # reported running wrong way on 125, confident, for 78 s
+    out = _replay_recorded(trackmap.load_default(), _BEYOND_RADIUS, "T07")
+    settled = [p for p in out if p.t >= 62.0]
+    assert {(p.edge_id, p.direction) for p in settled} == {(373, 1)}
     assert not any(p.wrong_way for p in out)
     assert all(p.status == "confident" for p in settled)
 

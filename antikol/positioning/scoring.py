@@ -142,7 +142,16 @@ def score_fixes(
         sigma = scales[:, 0] * hdop
         bias_sigma = scales[:, 1] * hdop
     radius = np.maximum(c.search_radius_m, 4.0 * sigma)
-    found = find(xs, ys, radius)
+    # the search reaches as far from a hypothesis' track as its fix may lie: the radius
+    # covers a bias of twice its prior, and the search goes further by what a hypothesis
+    # has learnt beyond that. A receiver whose bias had grown to 12 m put an ordinary fix's
+    # heavy tail 25 m off its track: that track was no candidate, its hypothesis died and
+    # a far less probable one on the next track (wrong-way running) was left holding all
+    # the probability, confident
+    filled = fleet.hs[rows] >= 0
+    learnt = np.where(filled, np.hypot(fleet.bx[rows], fleet.by[rows]), 0.0).max(axis=1)
+    beyond = np.clip(learnt - 2.0 * bias_sigma, 0.0, c.search_radius_m)
+    found = find(xs, ys, radius + beyond)
     # one candidate state per (candidate place, running direction)
     cv = np.repeat(found.point, 2)  # report index of each candidate state
     edge = np.repeat(found.edge_id, 2)
