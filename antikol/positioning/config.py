@@ -39,6 +39,12 @@ class PositioningConfig:
         float) and 4 (RTK fixed), m: a receiver that says it is better is believed.
     bias_tau_s : float
         Correlation time of the bias, s.
+    bias_sigma_max_factor : float
+        A vehicle's bias prior (plain fixes) grows with the bias across the track that its
+        hypotheses learn, up to this many times ``bias_sigma_m``
+        (:mod:`antikol.positioning.biasscale`): under a receiver whose multipath runs to
+        10 m a fixed prior of 2.5 m made the nearer track's hypothesis *confident*;
+        1 keeps the prior fixed (>= 1).
     outlier_weight : float
         Weight of the broad component of the lateral likelihood (multipath jumps, heavy
         tails): one fix far off the track cannot veto the truth.
@@ -190,6 +196,7 @@ class PositioningConfig:
     gps_sigma_m: float = 3.0
     bias_sigma_m: float = 2.5
     bias_tau_s: float = 60.0
+    bias_sigma_max_factor: float = 4.0
     dgps_sigma_m: float = 1.0
     rtk_float_sigma_m: float = 0.3
     rtk_sigma_m: float = 0.05
@@ -269,7 +276,7 @@ class PositioningConfig:
         ):
             if getattr(self, name) <= 0.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
-        for name in ("max_hypotheses", "confident_after"):
+        for name in ("max_hypotheses", "confident_after", "bias_sigma_max_factor"):
             if getattr(self, name) < 1:
                 raise InvalidArgumentError(name, getattr(self, name), "must be >= 1")
         for name in (

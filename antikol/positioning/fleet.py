@@ -40,7 +40,7 @@ VEHICLE_FIELDS = (
     "run_nofix", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "urun", "udisp", "urep", "uscale",
     "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
-    "opxx", "opxy", "oscale",
+    "opxx", "opxy", "oscale", "bvar",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
@@ -104,7 +104,8 @@ class FleetState:
     # odometer's scale (:mod:`antikol.positioning.odometerscale`: the last raw and
     # corrected readings, the raw reading and lineage progress at the last fix, m, the
     # pooled raw run, m, the current run of fixes' regression of progress on the
-    # odometer and the pooled one of the runs before, and the scale)
+    # odometer and the pooled one of the runs before, and the scale); the mean square of
+    # its GPS bias per axis (:mod:`antikol.positioning.biasscale`, m², 0: none learnt)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -149,6 +150,7 @@ class FleetState:
     opxx: FloatArray = field(init=False)
     opxy: FloatArray = field(init=False)
     oscale: FloatArray = field(init=False)
+    bvar: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -205,7 +207,9 @@ class FleetState:
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
         self.run_nofix[row] = self.urun[row] = self.udisp[row] = self.urep[row] = 0.0
         self.uscale[row] = self.oscale[row] = 1.0
-        for name in ("osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy"):
+        for name in (
+            "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy", "bvar",
+        ):  # fmt: skip
             getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
         self.rejected[row] = self.confident_run[row] = self.gated[row] = 0

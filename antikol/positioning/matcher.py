@@ -57,6 +57,7 @@ import numpy.typing as npt
 
 from antikol.gcpause import gc_paused
 from antikol.positioning.alongtrack import run_track_filters
+from antikol.positioning.biasscale import learn_bias_sigma
 from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
@@ -527,6 +528,8 @@ class Positioner:
                 (rank_order, bounds, p, parent, fresh, scored.standing),
                 (cs, co, prog, ww, came, error_cols),
             )
+            learn_bias_sigma(self._f, rows[go], t[go], self.reach.headings.at,
+                             prior_sigma_m=c.bias_sigma_m)  # fmt: skip
         kept = np.flatnonzero(~skip)
         self._set_fixes(kept, reports, rows, t, speed, odo, xs, ys)
         self._f.stood[rows[kept]] = scored.stood_s[kept]

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from antikol.positioning.biasscale import bias_sigma_of
 from antikol.positioning.candidates import Candidates
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fixerror import (
@@ -141,6 +142,11 @@ def score_fixes(
         scales = np.array([kinds[q] for q in quality], dtype=float)
         sigma = scales[:, 0] * hdop
         bias_sigma = scales[:, 1] * hdop
+    # a plain fix's bias prior is its receiver's, as learnt from its fixes (biasscale)
+    plain = np.fromiter((q not in (2, 4, 5) for q in quality), bool, n)
+    if plain.any() and c.bias_sigma_max_factor > 1.0:
+        learnt = bias_sigma_of(fleet, rows, c.bias_sigma_m, max_factor=c.bias_sigma_max_factor)
+        bias_sigma = np.where(plain, learnt * hdop, bias_sigma)
     radius = np.maximum(c.search_radius_m, 4.0 * sigma)
     # the search reaches as far from a hypothesis' track as its fix may lie: the radius
     # covers a bias of twice its prior, and the search goes further by what a hypothesis
