@@ -101,8 +101,7 @@ def learn_bias_sigma(
     ----------
     fleet : FleetState
         Read: the hypotheses (``hs``, ``ho``, ``hp``, ``bx``, ``by``, ``pxx``, ``pxy``,
-        ``pyy``) and the
-        previous fix's time ``t``; written: ``bvar`` (m²).
+        ``pyy``) and the previous fix's time ``t``; written: ``bvar`` (m²).
     rows : ndarray of int
         Vehicles with a committed fix.
     t : ndarray
@@ -120,11 +119,12 @@ def learn_bias_sigma(
     weight = np.where(filled, np.exp(fleet.hp[rows]), 0.0)
     total = weight.sum(axis=1)
     r, k = np.nonzero(filled)
+    row = rows[r]
     state = hs[r, k]
-    h = np.radians(headings(state_edge(state), fleet.ho[rows][r, k], state_direction(state)))
+    h = np.radians(headings(state_edge(state), fleet.ho[row, k], state_direction(state)))
     nx, ny = np.cos(h), -np.sin(h)  # across the track (either side: it is squared)
-    bx, by = fleet.bx[rows][r, k], fleet.by[rows][r, k]
-    pxx, pxy, pyy = (getattr(fleet, name)[rows][r, k] for name in ("pxx", "pxy", "pyy"))
+    bx, by = fleet.bx[row, k], fleet.by[row, k]
+    pxx, pxy, pyy = fleet.pxx[row, k], fleet.pxy[row, k], fleet.pyy[row, k]
     power = np.zeros(hs.shape)
     power[r, k] = (bx * nx + by * ny) ** 2 + pxx * nx * nx + 2.0 * pxy * nx * ny + pyy * ny * ny
     sample = (weight * power).sum(axis=1) / np.where(total > 0, total, 1.0)

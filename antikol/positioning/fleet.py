@@ -105,7 +105,8 @@ class FleetState:
     # corrected readings, the raw reading and lineage progress at the last fix, m, the
     # pooled raw run, m, the current run of fixes' regression of progress on the
     # odometer and the pooled one of the runs before, and the scale); the mean square of
-    # its GPS bias per axis (:mod:`antikol.positioning.biasscale`, m², 0: none learnt)
+    # its GPS bias across the track (:mod:`antikol.positioning.biasscale`, m², 0: none
+    # learnt)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
