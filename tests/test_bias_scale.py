@@ -26,6 +26,7 @@ from antikol.positioning.fleet import FleetState
 
 _PRIOR_M = 2.5
 _POOR_RECEIVER = Path(__file__).parent / "data" / "a_poor_receiver_past_a_switch.json"
+_BEYOND_TWICE = Path(__file__).parent / "data" / "a_learnt_bias_beyond_twice_a_learnt_prior.json"
 
 
 def _fleet(k: int = 2) -> FleetState:
@@ -129,11 +130,11 @@ def test_the_factor_must_not_shrink_the_prior():
         PositioningConfig(bias_sigma_max_factor=0.5)
 
 
-def _replay(config: PositioningConfig) -> list:
-    data = json.loads(_POOR_RECEIVER.read_text())
+def _replay(config: PositioningConfig, recorded: Path = _POOR_RECEIVER, vid: str = "T12") -> list:
+    data = json.loads(recorded.read_text())
     pos = Positioner(trackmap.load_default(), config)
     return [
-        pos.update(VehicleReport("T12", t, lat, lon, v, c, odometer_m=o, fix_quality=q))
+        pos.update(VehicleReport(vid, t, lat, lon, v, c, odometer_m=o, fix_quality=q))
         for t, lat, lon, v, c, o, q in data["reports"]
     ]
 
@@ -148,6 +149,20 @@ def test_a_poor_receiver_is_not_put_confident_on_the_branch_its_bias_points_to()
     assert not [p for p in out if p.edge_id == 288]
     fixed = _replay(PositioningConfig(bias_sigma_max_factor=1.0))
     assert [p for p in fixed if p.edge_id == 288 and p.status == "confident"]
+
+
+def test_the_search_reaches_a_learnt_bias_beyond_twice_the_stated_prior():
+    # a late street receiver with a strong multipath bias: after minutes of fixes 20-28 m
+    # off 463 (the prior learnt: 10 m), the hypothesis on 463 had learnt a bias of 22 m,
+    # and at t = 854 s a fix landed 27.7 m from 463, 24.4 m from 456 (the other
+    # direction's track). The search went beyond its 25 m by the learnt bias less twice
+    # the *learnt* prior (2.2 m): 463 was no candidate, its hypothesis died and the tram
+    # was reported running wrong way on 456, confident, for 46 s
+    out = _replay(PositioningConfig(), _BEYOND_TWICE, "T06")
+    on_463 = [p for p in out if 850.0 <= p.t <= 887.0]
+    assert {(p.edge_id, p.direction) for p in on_463} == {(463, 1)}
+    assert all(p.status == "confident" for p in on_463)
+    assert not any(p.wrong_way for p in out)
 
 
 def test_the_saved_state_keeps_the_learnt_prior():

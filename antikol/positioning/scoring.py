@@ -142,6 +142,7 @@ def score_fixes(
         scales = np.array([kinds[q] for q in quality], dtype=float)
         sigma = scales[:, 0] * hdop
         bias_sigma = scales[:, 1] * hdop
+    stated_bias_sigma = bias_sigma  # (the fix quality's prior, before any learnt one)
     # a plain fix's bias prior is its receiver's, as learnt from its fixes (biasscale)
     plain = np.fromiter((q not in (2, 4, 5) for q in quality), bool, n)
     if plain.any() and c.bias_sigma_max_factor > 1.0:
@@ -149,14 +150,15 @@ def score_fixes(
         bias_sigma = np.where(plain, learnt * hdop, bias_sigma)
     radius = np.maximum(c.search_radius_m, 4.0 * sigma)
     # the search reaches as far from a hypothesis' track as its fix may lie: the radius
-    # covers a bias of twice its prior, and the search goes further by what a hypothesis
-    # has learnt beyond that. A receiver whose bias had grown to 12 m put an ordinary fix's
-    # heavy tail 25 m off its track: that track was no candidate, its hypothesis died and
-    # a far less probable one on the next track (wrong-way running) was left holding all
-    # the probability, confident
+    # covers a bias of twice the stated prior, and the search goes further by what a
+    # hypothesis has learnt beyond that. A receiver whose bias had grown to 12 m put an
+    # ordinary fix's heavy tail 25 m off its track: that track was no candidate, its
+    # hypothesis died and a far less probable one on the next track (wrong-way running)
+    # was left holding all the probability, confident. (Not twice the learnt prior: at
+    # 10 m that left 5 m of the radius for the fix's own error beyond a 22 m bias)
     filled = fleet.hs[rows] >= 0
     learnt = np.where(filled, np.hypot(fleet.bx[rows], fleet.by[rows]), 0.0).max(axis=1)
-    beyond = np.clip(learnt - 2.0 * bias_sigma, 0.0, c.search_radius_m)
+    beyond = np.clip(learnt - 2.0 * stated_bias_sigma, 0.0, c.search_radius_m)
     found = find(xs, ys, radius + beyond)
     # one candidate state per (candidate place, running direction)
     cv = np.repeat(found.point, 2)  # report index of each candidate state
