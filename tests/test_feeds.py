@@ -8,6 +8,8 @@ import json
 from datetime import UTC, datetime
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import trackmap
 from antikol.cli import main
@@ -307,3 +309,57 @@ def test_a_feed_in_km_h_is_read_with_its_speed_unit(simulated, tmp_path, capsys)
         read_log(csv_log, speed_unit="km/h")
     assert main(["match", str(csv_log), "--speed-unit", "km/h"]) == 2
     assert "a csv log's speeds are in m/s" in capsys.readouterr().err
+
+
+def test_hfp_vehicles_are_keyed_by_their_owner_not_the_trip_operator(simulated, tmp_path):
+    # HFP's oper is the operator running the trip: a subcontracted trip names another
+    # operator than the vehicle's owner in the topic. Keyed by oper, vehicle 18/1 split
+    # at its second trip and merged with 6/1, another vehicle of the same number
+    t1 = [r for r in simulated if r.vehicle_id == "T01"][:20]
+    t2 = [r for r in simulated if r.vehicle_id == "T02"][:20]
+    headsign = "Matinkylä (M)"  # (spaces in the topic)
+
+    def line(owner: str, r, oper: int) -> str:
+        topic = f"/hfp/v2/journey/ongoing/vp/tram/{owner}/00001/1004/1/{headsign}/08:00/1/60;19"
+        return f"{topic} {json.dumps(_vp(r, oper=oper, veh=1))}"
+
+    lines = [line("0018", r, 6 if k >= 10 else 18) for k, r in enumerate(t1)]
+    lines += [line("0006", r, 6) for r in t2]
+    path = tmp_path / "hfp.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    log = read_hfp(path)
+    assert not log.problems
+    assert {r.vehicle_id for r in log.reports} == {"18/1", "6/1"}
+    assert sum(r.vehicle_id == "18/1" for r in log.reports) == len(t1)
+
+    rows = [_vp(r, oper=6, veh=1)["VP"] for r in t1]
+    archive = tmp_path / "hfp.csv"
+    with archive.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["event_type", "owner_operator_id", "vehicle_number", *rows[0].keys()])
+        for row in rows:
+            w.writerow(["VP", "18", "1", *["" if v is None else v for v in row.values()]])
+    assert {r.vehicle_id for r in read_log(archive).reports} == {"18/1"}
+
+
+@given(
+    operator=st.integers(0, 9999),
+    vehicle=st.integers(0, 99999),
+    rest=st.lists(st.text(st.characters(blacklist_characters="/"), max_size=8), max_size=8),
+)
+def test_hfp_topic_names_the_owner_and_the_vehicle(operator, vehicle, rest):
+    from antikol.ingest.hfp import topic_vehicle_id
+
+    head = ["", "hfp", "v2", "journey", "ongoing", "vp", "tram"]
+    topic = "/".join([*head, f"{operator:04d}", f"{vehicle:05d}", *rest])
+    assert topic_vehicle_id(topic) == f"{operator}/{vehicle}"
+    v1 = "/".join(["", "hfp", "v1", "journey", "ongoing", "bus", str(operator), str(vehicle)])
+    assert topic_vehicle_id(v1) == f"{operator}/{vehicle}"
+
+
+@given(st.text(max_size=80))
+def test_any_topic_gives_an_id_or_none(topic):
+    from antikol.ingest.hfp import topic_vehicle_id
+
+    got = topic_vehicle_id(topic)
+    assert got is None or (isinstance(got, str) and got)

@@ -5,7 +5,8 @@ messages whose payload is a JSON object keyed by the event type, ``{"VP": {...}}
 vehicle position. The fields used here (HFP v2):
 
 =========  ===================================================================
-``oper``   operator id; with ``veh`` the vehicle id ``"<oper>/<veh>"``
+``oper``   operator id; with ``veh`` the vehicle id ``"<oper>/<veh>"`` where the
+           vehicle's owner is not given (below)
 ``veh``    vehicle number within the operator
 ``tst``    UTC time, ISO 8601 (``2023-12-14T08:00:01.123Z``); ``tsi`` (Unix
            seconds) when ``tst`` is missing
@@ -17,6 +18,15 @@ vehicle position. The fields used here (HFP v2):
 ``loc``    location source: ``GPS`` is a fix; ``ODO``, ``DR``, ``MAN`` and
            ``N/A`` are not (``fix_quality`` 0, the position is not a measurement)
 =========  ===================================================================
+
+**Vehicle identity.** ``oper`` is the operator *running the trip*, which differs from
+the operator owning the vehicle when a service is subcontracted: keyed by ``oper``, one
+vehicle would split at every such trip, and two vehicles of the same number from different
+owners would merge into one that jumps between them. So the vehicle's owner is used
+wherever the record gives it: the MQTT topic's operator and vehicle number
+(``/hfp/v2/journey/ongoing/vp/tram/0040/00412/...``: ``"40/412"``), else an archive's
+``unique_vehicle_id`` (``"40/412"``), else its ``owner_operator_id`` with
+``vehicle_number``, else ``oper`` with ``veh``.
 
 Accepted forms, one message per record:
 
@@ -49,7 +59,7 @@ import os
 from collections.abc import Iterable, Iterator, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Final
+from typing import Any, Final, NamedTuple
 
 from antikol.errors import ReplayError
 from antikol.ingest.compressed import logical_suffix, read_input
@@ -63,6 +73,7 @@ __all__ = [
     "hfp_record",
     "looks_like_hfp_csv",
     "read_hfp",
+    "topic_vehicle_id",
 ]
 
 #: The HFP event type of vehicle positions.
@@ -104,22 +115,72 @@ def _time(fields: Mapping[str, Any]) -> float:
     return tsi
 
 
+def _plain(value: Any) -> str:
+    text = str(value).strip()
+    # "0412" -> "412"; only ASCII digits (int() also reads "²" and fails on 5000 digits)
+    return str(int(text)) if text.isascii() and text.isdigit() and len(text) < 20 else text
+
+
+def _given(value: Any) -> bool:
+    return value is not None and str(value).strip() != ""
+
+
+def _owned_id(operator: Any, vehicle: Any) -> str:
+    return f"{_plain(operator)}/{_plain(vehicle)}" if _given(operator) else _plain(vehicle)
+
+
 def _vehicle_id(fields: Mapping[str, Any]) -> str:
+    unique = fields.get("unique_vehicle_id", fields.get("uniquevehicleid"))
+    if _given(unique):
+        return "/".join(_plain(part) for part in str(unique).split("/"))
+    number = fields.get("vehicle_number", fields.get("vehiclenumber"))
+    if _given(number):
+        return _owned_id(fields.get("owner_operator_id", fields.get("owneroperatorid")), number)
     veh = fields.get("veh")
-    if veh is None or str(veh).strip() == "":
+    if not _given(veh):
         raise HfpRecordError("veh is missing")
-    oper = fields.get("oper")
-
-    def plain(value: Any) -> str:
-        text = str(value).strip()
-        # "0412" -> "412"; only ASCII digits (int() also reads "²" and fails on 5000 digits)
-        return str(int(text)) if text.isascii() and text.isdigit() and len(text) < 20 else text
-
-    return f"{plain(oper)}/{plain(veh)}" if oper is not None and str(oper).strip() else plain(veh)
+    return _owned_id(fields.get("oper"), veh)
 
 
-def hfp_fields(fields: Mapping[str, Any], record: int, source: str) -> FeedRecord:
+def topic_vehicle_id(topic: str) -> str | None:
+    """The vehicle id (``"<owner operator>/<vehicle number>"``) in an HFP MQTT topic.
+
+    Parameters
+    ----------
+    topic : str
+        ``/hfp/v2/<journey type>/<temporal type>/<event type>/<mode>/<operator>/<vehicle>/...``
+        (HFP v1 topics have no event type).
+
+    Returns
+    -------
+    str or None
+        None for a topic of another form.
+
+    >>> topic_vehicle_id("/hfp/v2/journey/ongoing/vp/bus/0018/00423/2159/2/Matinkylä")
+    '18/423'
+    """
+    parts = topic.strip().split("/")
+    try:
+        at = parts.index("hfp")
+    except ValueError:
+        return None
+    version = parts[at + 1] if len(parts) > at + 1 else ""
+    first = {"v1": at + 5, "v2": at + 6}.get(version)  # the operator's place
+    if first is None or len(parts) <= first + 1:
+        return None
+    operator, vehicle = parts[first], parts[first + 1]
+    if not (_given(operator) and _given(vehicle)) or "+" in (operator, vehicle):
+        return None
+    return _owned_id(operator, vehicle)
+
+
+def hfp_fields(
+    fields: Mapping[str, Any], record: int, source: str, *, vehicle_id: str | None = None
+) -> FeedRecord:
     """A :class:`~antikol.ingest.feed_common.FeedRecord` from the fields of a VP event.
+
+    ``vehicle_id`` (keyword-only): the vehicle's id where the message's topic gives it
+    (:func:`topic_vehicle_id`); else it comes from the fields (see the module).
 
     Raises
     ------
@@ -131,7 +192,7 @@ def hfp_fields(fields: Mapping[str, Any], record: int, source: str) -> FeedRecor
     return FeedRecord(
         record=record,
         source=source,
-        vehicle_id=_vehicle_id(fields),
+        vehicle_id=vehicle_id if vehicle_id else _vehicle_id(fields),
         t=_time(fields),
         lat=_number(fields, "lat", required=False),
         lon=_number(fields, "long", required=False)
@@ -144,7 +205,9 @@ def hfp_fields(fields: Mapping[str, Any], record: int, source: str) -> FeedRecor
     )
 
 
-def hfp_record(message: Any, record: int, source: str = "") -> FeedRecord | str:
+def hfp_record(
+    message: Any, record: int, source: str = "", *, vehicle_id: str | None = None
+) -> FeedRecord | str:
     """The vehicle-position record of one HFP message, or the event type it has instead.
 
     Parameters
@@ -155,6 +218,8 @@ def hfp_record(message: Any, record: int, source: str = "") -> FeedRecord | str:
         Line or record number, for messages.
     source : str
         The file.
+    vehicle_id : str, optional, keyword-only
+        The vehicle's id from the message's MQTT topic (:func:`topic_vehicle_id`).
 
     Returns
     -------
@@ -175,38 +240,59 @@ def hfp_record(message: Any, record: int, source: str = "") -> FeedRecord | str:
         return str(event)
     if not isinstance(payload, dict):
         raise HfpRecordError(f"the {event} payload is not a JSON object")
-    return hfp_fields(payload, record, source)
+    return hfp_fields(payload, record, source, vehicle_id=vehicle_id)
 
 
-def _json_messages(text: str) -> Iterator[tuple[int, Any | Exception]]:
-    """(line or record number, message or the error decoding it) of a JSON HFP file."""
+class _Message(NamedTuple):
+    number: int  # line or record number
+    body: Any  # the decoded message, or the error decoding it
+    vehicle_id: str | None = None  # from the MQTT topic, if any
+
+
+def _json_messages(text: str) -> Iterator[_Message]:
+    """The messages of a JSON HFP file."""
     if text.lstrip().startswith("["):
         try:
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
-            yield exc.lineno, HfpRecordError(f"unreadable JSON array: {exc.msg}")
+            yield _Message(exc.lineno, HfpRecordError(f"unreadable JSON array: {exc.msg}"))
             return
-        yield from enumerate(doc, start=1)
+        for number, message in enumerate(doc, start=1):
+            yield _Message(number, message)
         return
     for number, line in enumerate(text.splitlines(), start=1):
         body = line.strip()
         if not body:
             continue
+        vehicle_id = None
         if not body.startswith("{") and " " in body:  # an MQTT dump line: topic payload
-            body = body.split(" ", 1)[1].strip()
+            # (a topic may hold spaces, in the headsign: the payload starts at the brace)
+            brace = body.find(" {")
+            topic, body = (body[:brace], body[brace:]) if brace > 0 else body.split(" ", 1)
+            body = body.strip()
+            vehicle_id = topic_vehicle_id(topic)
         try:
-            yield number, json.loads(body)
+            yield _Message(number, json.loads(body), vehicle_id)
         except json.JSONDecodeError as exc:
-            yield number, HfpRecordError(f"unreadable JSON: {exc.msg} (column {exc.colno})")
+            yield _Message(
+                number, HfpRecordError(f"unreadable JSON: {exc.msg} (column {exc.colno})")
+            )
+
+
+#: Header names of a vehicle's identity in the CSV archive forms (lower case).
+_VEHICLE_COLUMNS: Final = frozenset(
+    {"veh", "vehicle_number", "vehiclenumber", "unique_vehicle_id", "uniquevehicleid"}
+)
 
 
 def looks_like_hfp_csv(header: Iterable[str]) -> bool:
-    """Whether a CSV header names the HFP fields (``veh``, ``tst`` or ``tsi``, ``lat``)."""
+    """Whether a CSV header names the HFP fields (``veh`` or the vehicle's owner and
+    number, ``tst`` or ``tsi``, ``lat``)."""
     names = {h.strip().lstrip("\ufeff").lower() for h in header}
-    return "veh" in names and "lat" in names and bool(names & {"tst", "tsi"})
+    return bool(names & _VEHICLE_COLUMNS) and "lat" in names and bool(names & {"tst", "tsi"})
 
 
-def _csv_records(fh: Any, path: Path) -> Iterator[tuple[int, Any | Exception]]:
+def _csv_records(fh: Any, path: Path) -> Iterator[_Message]:
     reader = csv.reader(fh)
     try:
         header = [h.strip().lstrip("\ufeff") for h in next(reader)]
@@ -214,7 +300,8 @@ def _csv_records(fh: Any, path: Path) -> Iterator[tuple[int, Any | Exception]]:
         raise ReplayError(f"{path}: empty file (expected an HFP header line)") from None
     if not looks_like_hfp_csv(header):
         raise ReplayError(
-            f"{path}: not an HFP CSV header (needs veh, tst or tsi, lat, long); "
+            f"{path}: not an HFP CSV header (needs veh or vehicle_number, tst or tsi, "
+            "lat, long); "
             f"got {','.join(header)}"
         )
     lower = [h.lower() for h in header]
@@ -225,19 +312,18 @@ def _csv_records(fh: Any, path: Path) -> Iterator[tuple[int, Any | Exception]]:
         except StopIteration:
             return
         except csv.Error as exc:
-            yield reader.line_num, HfpRecordError(f"unreadable row: {exc}")
+            yield _Message(reader.line_num, HfpRecordError(f"unreadable row: {exc}"))
             continue
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
-            yield (
-                reader.line_num,
-                HfpRecordError(f"{len(row)} fields, the header has {len(header)}"),
+            yield _Message(
+                reader.line_num, HfpRecordError(f"{len(row)} fields, the header has {len(header)}")
             )
             continue
         fields = dict(zip(lower, row, strict=True))
         event = row[event_col].strip().upper() if event_col is not None else HFP_EVENT
-        yield reader.line_num, {event or HFP_EVENT: fields}
+        yield _Message(reader.line_num, {event or HFP_EVENT: fields})
 
 
 def read_hfp(
@@ -288,12 +374,12 @@ def read_hfp(
     if decoded.problem is not None:  # the records before the cut are read all the same
         out.problem(0, str(p), decoded.problem)
     records: list[FeedRecord] = []
-    for number, message in messages:
+    for number, message, vehicle_id in messages:
         if isinstance(message, Exception):
             out.problem(number, str(p), str(message))
             continue
         try:
-            rec = hfp_record(message, number, str(p))
+            rec = hfp_record(message, number, str(p), vehicle_id=vehicle_id)
         except HfpRecordError as exc:
             out.problem(number, str(p), str(exc))
             continue
