@@ -41,6 +41,7 @@ _CURVE_PAIR = "two_tracks_one_way_through_a_curve.json"
 _SWUNG_BELIEF = "a_swung_belief_before_an_outage.json"
 _PAST_A_JUNCTION = "an_outage_past_a_switch_and_a_junction.json"
 _BEYOND_RADIUS = "a_fix_beyond_the_search_radius_of_a_learnt_bias.json"
+_BEHIND_LINEAGE = "behind_its_lineage_past_a_switch_and_a_junction.json"
 
 
 @pytest.fixture(scope="module")
@@ -245,6 +246,53 @@ def test_not_held_again_at_a_switch_reported_past_unless_the_branch_lost(switch_
     assert hold(0.8, 6.0, {toe}) is not None  # a step back of a few metres is no break
 
 
+@pytest.fixture(scope="module")
+def switch_then_junction(tmp_path_factory):
+    """A facing switch at (0, 0) (straight on north, a branch curving right) and, 25 m
+    down the straight track, a trailing junction where a track from the south-west joins
+    it at a switch's angle."""
+    b = OsmBuilder()
+    toe = b.node(0, 0)
+    joint = b.node(0, 25)
+    b.line([(0, -200), (0, -100), toe], oneway="yes")
+    b.line([toe, joint], oneway="yes")
+    b.line([joint, (0, 100), (0, 200)], oneway="yes")
+    b.line([(-30, -150), (-8, -20), (-2, 12), joint], oneway="yes")
+    b.line([toe, (1.0, 10.0), (4.0, 20.0), (9.0, 30.0), (30.0, 55.0), (80.0, 80.0)], oneway="yes")
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("j") / "j.osm"))
+
+
+def test_a_position_behind_its_lineage_past_a_junction_is_not_held_at_the_switch(
+    switch_then_junction,
+):
+    # the tram took the straight track at the switch and its hypothesis (p 0.98) has just
+    # passed the junction 25 m on, while the filtered position is still before it: placed
+    # at the end of the edge the lineage came from. The junction hides the hypothesis' way
+    # back to the switch; counted as on no branch, the branch looked undecided and the
+    # tram, reported past the switch for seconds, was put back at it
+    net = switch_then_junction
+    (before,) = [e for e in net.edges if e.way_ids == (2,)]
+    (after,) = [e for e in net.edges if e.way_ids == (3,)]
+    branch = next(e for e in net.edges if e.way_ids == (5,))
+    toe = before.start_node
+    hyps = [
+        Hypothesis(after.edge_id, 1, 2.0, 0.98, 0.0),
+        Hypothesis(branch.edge_id, 1, 26.0, 0.02, 0.0),
+    ]
+    arrivals = Arrivals(net)
+    end = before.length_m - 0.1
+    way = [(before.edge_id, 1)]
+    assert hold_at_switch(arrivals, hyps, before.edge_id, end, 1, released={toe}, way=way) is None
+    assert hold_at_switch(arrivals, hyps, before.edge_id, end, 1, way=way) is None
+    # the branch still undecided: held at the switch as before
+    split = [
+        dataclasses.replace(hyps[0], probability=0.6),
+        dataclasses.replace(hyps[1], probability=0.4),
+    ]
+    held = hold_at_switch(arrivals, split, before.edge_id, end, 1, way=way)
+    assert held is not None and held.node == toe
+
+
 # -- dead reckoning through a switch -----------------------------------------------------------
 def test_without_a_fix_past_a_switch_the_place_is_as_unsure_as_the_split(switch_net):
     net = switch_net
@@ -423,6 +471,28 @@ def test_one_stray_fix_beside_a_merging_track_does_not_relocate_the_tram():
     net = trackmap.load_default()
     out = _replay_recorded(net, _STRAY_FIX, "T02")
     assert all(p.matched for p in out[5:])
+    for p, q in itertools.pairwise(out[5:]):
+        ahead = net.route_distance(
+            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
+        )
+        back = net.route_distance(
+            q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
+        )
+        assert ahead is not None or back is not None, (p, q)
+
+
+def test_reported_past_a_switch_the_tram_is_not_put_back_at_it_behind_a_junction():
+    # street GPS (the simulator's urban model): a tram crawls through the facing switch at
+    # the end of 744, is held at it while the branch is open and reported on 746 once it
+    # is decided (p 0.99). Its hypothesis then passed the junction at the end of 746 (745
+    # begins where 1076 joins) a fix ahead of the filtered position: the junction hid the
+    # hypothesis' way back to the switch, the branch looked undecided and the tram was put
+    # back at the switch for one fix (746 at 27.7 m, then 744 at 19.3 m, then 745)
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _BEHIND_LINEAGE, "T07")
+    past = [p for p in out if p.t >= 192.0]
+    assert past[0].edge_id == 746
+    assert 744 not in {p.edge_id for p in past}
     for p, q in itertools.pairwise(out[5:]):
         ahead = net.route_distance(
             p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0

@@ -219,6 +219,24 @@ class Arrivals:
         return cached
 
 
+def _first_way(
+    net: TrackMap, hypotheses: Sequence[Hypothesis], way: Sequence[State], here: State
+) -> list[State]:
+    """The states the first hypothesis came through, oldest first, as far as ``way`` (the
+    reported position's, ending at ``here``) tells: up to the first hypothesis' state when
+    that is on it, ``way`` and then the first hypothesis' state when the position lies
+    behind its lineage on the track the lineage entered its edge from, else none."""
+    if not hypotheses or not way or tuple(way[-1]) != here:
+        return []
+    first = (hypotheses[0].edge_id, hypotheses[0].direction)
+    states: list[State] = [(int(s[0]), int(s[1])) for s in way]
+    if first in states[1:]:
+        return states[: states.index(first) + 1]
+    if first != here and first in net.successors(*here, respect_direction=False):
+        return [*states, first]
+    return []
+
+
 def entry_node(net: TrackMap, edge: int, direction: int) -> int:
     """The node at which a vehicle in ``(edge, direction)`` entered the edge."""
     e = net.edges[edge]
@@ -303,13 +321,12 @@ def hold_at_switch(
         for h in hypotheses
     ]
     came = dict(zip(way[1:], way[:-1], strict=False)) if along else {}
-    if along and hypotheses:
-        # the first hypothesis came the reported position's way (its state is on it)
-        first = (hypotheses[0].edge_id, hypotheses[0].direction)
-        if first in way[1:]:
-            mine_way = list(way[: list(way).index(first) + 1])
-            passed = {n: s for n, _, s in arrivals.switches_along(mine_way)}
-            chains[0] = ({**chains[0][0], **passed}, chains[0][1])
+    mine_way = _first_way(net, hypotheses, way, (edge, direction))
+    if mine_way:
+        # the first hypothesis came the reported position's way: the switches along it
+        # are the ones it passed, also beyond a junction that hides the track's way back
+        passed = {n: s for n, _, s in arrivals.switches_along(mine_way)}
+        chains[0] = ({**chains[0][0], **passed}, chains[0][1])
     for node, past, state in reversed(switches):  # the earliest switch first
         trunk = came.get(state) or arrivals.before(*state)
         if trunk is None:  # pragma: no cover - a switch has a track before it
