@@ -462,6 +462,18 @@ def _replay_recorded(net, name: str, vehicle_id: str) -> list:
     return out
 
 
+def _assert_connected(net, positions: list) -> None:
+    """Each position is reached from the one before within 60 m ahead, or 10 m behind."""
+    for p, q in itertools.pairwise(positions):
+        ahead = net.route_distance(
+            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
+        )
+        back = net.route_distance(
+            q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
+        )
+        assert ahead is not None or back is not None, (p, q)
+
+
 def test_one_stray_fix_beside_a_merging_track_does_not_relocate_the_tram():
     # street GPS (the simulator's urban model): a tram runs through a curve towards a
     # trailing switch; one fix lands on the other track that joins there, which no move
@@ -471,14 +483,7 @@ def test_one_stray_fix_beside_a_merging_track_does_not_relocate_the_tram():
     net = trackmap.load_default()
     out = _replay_recorded(net, _STRAY_FIX, "T02")
     assert all(p.matched for p in out[5:])
-    for p, q in itertools.pairwise(out[5:]):
-        ahead = net.route_distance(
-            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
-        )
-        back = net.route_distance(
-            q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
-        )
-        assert ahead is not None or back is not None, (p, q)
+    _assert_connected(net, out[5:])
 
 
 def test_reported_past_a_switch_the_tram_is_not_put_back_at_it_behind_a_junction():
@@ -493,14 +498,7 @@ def test_reported_past_a_switch_the_tram_is_not_put_back_at_it_behind_a_junction
     past = [p for p in out if p.t >= 192.0]
     assert past[0].edge_id == 746
     assert 744 not in {p.edge_id for p in past}
-    for p, q in itertools.pairwise(out[5:]):
-        ahead = net.route_distance(
-            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
-        )
-        back = net.route_distance(
-            q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
-        )
-        assert ahead is not None or back is not None, (p, q)
+    _assert_connected(net, out[5:])
 
 
 def test_a_bias_jump_onto_the_other_direction_track_is_no_wrong_way_running():
