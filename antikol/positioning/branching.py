@@ -293,7 +293,9 @@ def hold_at_switch(
         Edge ids of the vehicle's planned route: a branch on it is decided.
     way : sequence of (int, int), optional
         The states the reported position came through, oldest first, ending with
-        ``(edge, direction)``; its first hypothesis' state among them
+        ``(edge, direction)``; the first hypothesis came that way when its state is
+        among them or is entered from the last (the position lags its hypothesis by a
+        node), and the switches along it are the hypothesis' own
         (:meth:`Arrivals.switches_along`). Without it, the track's own way back
         (:meth:`Arrivals.switches`), which stops where tracks join.
 
