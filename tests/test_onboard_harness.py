@@ -88,9 +88,9 @@ def test_an_attacker_process_changes_nothing(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("bad", ["L", "L:10", "L:x:20", "L:20:10", ":1:2", "L:nan:5"])
 def test_a_malformed_blackout_is_a_usage_error_not_a_traceback(bad, capsys):
-    from antikol.onboard.harness import main as harness_main
+    from antikol.cli import main as antikol_main
 
     with pytest.raises(SystemExit) as exc:
-        harness_main(["--blackout", bad])
+        antikol_main(["harness", "--blackout", bad])
     assert exc.value.code == 2
     assert "SENDER:START:END" in capsys.readouterr().err

@@ -1,5 +1,5 @@
 """Command line interface: ``antikol replay | match | simulate | compare | demo | onboard |
-serve``.
+harness | serve``.
 
 One module per sub-command registers its parser (``add_parser``) and the function that
 runs it; :func:`main` dispatches and turns every failure into one line and an exit status.
@@ -12,9 +12,10 @@ Exit status
      one line ``antikol CMD: error: ...`` says what and where
  3   internal error: a bug in antikol, not a problem of the input; the message asks to
      report it (``-vv`` prints the traceback). ``compare`` also ends with 3 when a
-     scenario failed (the others are still scored and printed); ``replay --fleet`` ends
-     with 2 when a partition failed because of its input and 3 when one failed otherwise
-     (the others are still replayed; every failure is listed)
+     scenario failed (the others are still scored and printed), ``harness`` when a unit
+     exited with an error; ``replay --fleet`` ends with 2 when a partition failed because
+     of its input and 3 when one failed otherwise (the others are still replayed; every
+     failure is listed)
 130  interrupted (Ctrl-C)
 ===  ======================================================================================
 
@@ -29,7 +30,7 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from antikol.cli import evaluate, match, onboard, replay, serve
+from antikol.cli import evaluate, harness, match, onboard, replay, serve
 from antikol.cli.common import EXIT_INPUT_ERROR, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK
 from antikol.errors import AntikolError
 
@@ -52,6 +53,7 @@ def _parser() -> argparse.ArgumentParser:
     match.add_parser(sub)
     evaluate.add_parsers(sub)
     onboard.add_parser(sub)
+    harness.add_parser(sub)
     serve.add_parser(sub)
     return p
 

@@ -10,7 +10,7 @@
 * :mod:`antikol.onboard.netem` and :mod:`antikol.onboard.attacker` — fault injection on
   loopback for tests: a lossy relay between units and a sender of hostile frames;
 * :mod:`antikol.onboard.harness` — runs several units, the relay and the attacker as
-  processes and checks their lamps against one analyser.
+  processes and checks their lamps against one analyser (``antikol harness``).
 
 Frames, keys and replay protection themselves are in :mod:`antikol.ingest`
 (``protocol``, ``auth``, ``guard``).

@@ -17,23 +17,20 @@ harness
    compares them with one control-room :class:`~antikol.analysis.analyser.Analyser` fed
    the same (quantised) reports.
 
-``python -m antikol.onboard.harness --help`` runs it from the shell and prints the figures.
+``antikol harness --help`` (:mod:`antikol.cli.harness`) runs it from the shell and prints
+the figures.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
-import math
-import os
 import signal
 import socket
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +47,6 @@ __all__ = [
     "HarnessConfig",
     "HarnessResult",
     "UnitResult",
-    "main",
     "run_harness",
     "simulate_traffic",
 ]
@@ -370,89 +366,3 @@ def run_harness(cfg: HarnessConfig) -> HarnessResult:
             relay.stop()
     reference = _reference(genuine_reports, net, cfg.duration_s)
     return HarnessResult(cfg, units, reference, genuine, dict(relay.stats) if relay else {}, sent)
-
-
-def _blackout(text: str) -> tuple[str, float, float]:
-    """``SENDER:START:END`` as (sender, start s, end s), or an argparse error."""
-    who, _, span = text.partition(":")
-    a, _, b = span.partition(":")
-    try:
-        start, end = float(a), float(b)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not SENDER:START:END") from None
-    if not who or not (math.isfinite(start) and math.isfinite(end) and start < end):
-        raise argparse.ArgumentTypeError(f"{text!r} is not SENDER:START:END with START < END")
-    return who, start, end
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m antikol.onboard.harness``: run once and print the figures."""
-    p = argparse.ArgumentParser(prog="python -m antikol.onboard.harness", description=__doc__)
-    p.add_argument("--workdir", type=Path, default=Path("harness-run"))
-    p.add_argument("--scenario", default="following_straight")
-    p.add_argument("--extra-trams", type=int, default=2)
-    p.add_argument("--duration", type=float, default=30.0, help="report seconds")
-    p.add_argument("--speed", type=float, default=3.0)
-    p.add_argument("--auth", default="hmac-sha256", choices=("hmac-sha256", "ed25519", "none"))
-    p.add_argument("--loss", type=float, default=0.0)
-    p.add_argument("--delay", type=float, default=0.0, help="wall-clock s")
-    p.add_argument("--jitter", type=float, default=0.0, help="wall-clock s")
-    p.add_argument("--duplicate", type=float, default=0.0)
-    p.add_argument("--reorder", type=float, default=0.0)
-    p.add_argument("--corrupt", type=float, default=0.0)
-    p.add_argument(
-        "--blackout",
-        type=_blackout,
-        default=None,
-        help="SENDER:START:END in report seconds (e.g. L:10:20)",
-    )
-    p.add_argument("--attack-count", type=int, default=0, help="frames per kind per unit")
-    p.add_argument("--attack-rate", type=float, default=4000.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--startup", type=float, default=10.0)
-    args = p.parse_args(argv)
-    blackouts: tuple[tuple[str, float, float], ...] = ()
-    if args.blackout is not None:
-        blackouts = (args.blackout,)
-    impaired = any((args.loss, args.delay, args.jitter, args.duplicate, args.reorder))
-    impairment = (
-        Impairment(
-            loss=args.loss,
-            delay_s=args.delay,
-            jitter_s=args.jitter,
-            duplicate=args.duplicate,
-            reorder=args.reorder,
-            reorder_s=0.5 / args.speed,
-            corrupt=args.corrupt,
-            blackouts=blackouts,
-        )
-        if impaired or args.corrupt or blackouts
-        else None
-    )
-    cfg = HarnessConfig(
-        workdir=args.workdir,
-        scenario=args.scenario,
-        extra_trams=args.extra_trams,
-        duration_s=args.duration,
-        speed=args.speed,
-        auth=args.auth,
-        impairment=impairment,
-        attack_count=args.attack_count,
-        attack_rate=args.attack_rate,
-        seed=args.seed,
-        startup_s=args.startup,
-    )
-    result = run_harness(cfg)
-    summary = result.summary()
-    summary["config"] = {k: str(v) for k, v in asdict(cfg).items()}
-    print(json.dumps(summary, indent=1, sort_keys=True))
-    bad = [u.vehicle_id for u in result.units.values() if u.returncode != 0]
-    for vid in bad:
-        print(f"unit {vid} exited {result.units[vid].returncode}:", file=sys.stderr)
-        print(result.units[vid].stderr, file=sys.stderr)
-    return 1 if bad else 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    logging.basicConfig(level=os.environ.get("ANTIKOL_LOG", "WARNING"))
-    raise SystemExit(main())
