@@ -110,14 +110,14 @@ from pynmeagps.nmeahelpers import calc_checksum, get_parts
 from antikol.errors import InputFileError, InvalidReportError
 from antikol.ingest.compressed import logical_stem, logical_suffix, open_input, stream_problem
 from antikol.ingest.nmea_fields import (
-    _LEAP,
-    _coordinate,
-    _course,
-    _raw,
-    _rmc_date,
-    _Skip,
-    _speed,
-    _time_of_day,
+    LEAP_SECOND,
+    SkipSentence,
+    parse_coordinate,
+    parse_course,
+    parse_rmc_date,
+    parse_speed,
+    parse_time_of_day,
+    raw_field,
 )
 from antikol.ingest.nmea_spec import (
     GNSS_TALKERS,
@@ -411,97 +411,97 @@ class NmeaReader:
                 self._on_gga(msg, out)
             else:
                 self._on_vtg(msg, out)
-        except _Skip as skip:
+        except SkipSentence as skip:
             self._skip(skip.reason, f"{skip.detail}: {sentence[:100]!r}")
 
     def _parse(self, sentence: str) -> tuple[str, NMEAMessage]:
         match = _SENTENCE.fullmatch(sentence)
         if match is None:
-            raise _Skip("garbled", "not a complete '$...*hh' sentence")
+            raise SkipSentence("garbled", "not a complete '$...*hh' sentence")
         content = match["content"]
         if not (content.isascii() and content.isprintable()):
-            raise _Skip("garbled", "non-ASCII or control characters")
+            raise SkipSentence("garbled", "non-ASCII or control characters")
         if calc_checksum(content) != match["checksum"].upper():
-            raise _Skip("checksum", f"checksum should be {calc_checksum(content)}")
+            raise SkipSentence("checksum", f"checksum should be {calc_checksum(content)}")
         _, talker, msg_type, _, _ = get_parts(sentence)
         if msg_type not in _MIN_FIELDS:
-            raise _Skip("unsupported", "sentence type not used")
+            raise SkipSentence("unsupported", "sentence type not used")
         if talker not in GNSS_TALKERS:
-            raise _Skip("unsupported", f"talker {talker} is not a GNSS receiver")
+            raise SkipSentence("unsupported", f"talker {talker} is not a GNSS receiver")
         if _NOT_IN_FIELDS.search(content):
-            raise _Skip("garbled", "whitespace or '_' in a field")
+            raise SkipSentence("garbled", "whitespace or '_' in a field")
         try:
             msg = NMEAReader.parse(sentence.encode("ascii"), validate=VALCKSUM)
         except NMEAParseError as err:  # pynmeagps's own checksum verdict
-            raise _Skip("checksum", str(err)) from err
+            raise SkipSentence("checksum", str(err)) from err
         except (NMEATypeError, NMEAMessageError, ValueError, IndexError, KeyError) as err:
-            raise _Skip("garbled", f"unparsable field ({err})") from err
+            raise SkipSentence("garbled", f"unparsable field ({err})") from err
         if msg is None:
-            raise _Skip("garbled", "badly formed")
+            raise SkipSentence("garbled", "badly formed")
         if len(msg.payload) < _MIN_FIELDS[msg_type]:
-            raise _Skip("garbled", f"only {len(msg.payload)} fields")
+            raise SkipSentence("garbled", f"only {len(msg.payload)} fields")
         return msg_type, msg
 
     def _on_rmc(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
         status = getattr(msg, "status", "")
         mode = getattr(msg, "posMode", "")
-        tod = _time_of_day(msg)
+        tod = parse_time_of_day(msg)
         if status not in ("A", "V"):
-            raise _Skip("garbled", f"RMC status {status!r}")
+            raise SkipSentence("garbled", f"RMC status {status!r}")
         if status == "V" or mode == "N":
             self._void(tod, out, f"RMC status {status}, mode {mode or '-'}")
             return
-        day = _rmc_date(msg)
+        day = parse_rmc_date(msg)
         if tod is None or day is None:
-            raise _Skip("no_time", "RMC without valid date and time")
+            raise SkipSentence("no_time", "RMC without valid date and time")
         if not MIN_YEAR <= day.year <= MAX_YEAR:  # pragma: no cover - strptime %y range
-            raise _Skip("no_time", f"RMC year {day.year}")
+            raise SkipSentence("no_time", f"RMC year {day.year}")
         t = (datetime.combine(day, tod, tzinfo=UTC) - UNIX_EPOCH).total_seconds()
-        if tod.microsecond >= 999000 and _LEAP.fullmatch(_raw(msg, 0)):
+        if tod.microsecond >= 999000 and LEAP_SECOND.fullmatch(raw_field(msg, 0)):
             self._stats.flagged["leap_second"] += 1
         t = self._midnight(t, tod)
-        lat = _coordinate(msg, 2, "lat", "NS", 90.0)
-        lon = _coordinate(msg, 4, "lon", "EW", 180.0)
-        speed = _speed(getattr(msg, "spd", None), "kn", "RMC speed")
-        course = _course(getattr(msg, "cog", None), "RMC course")
+        lat = parse_coordinate(msg, 2, "lat", "NS", 90.0)
+        lon = parse_coordinate(msg, 4, "lon", "EW", 180.0)
+        speed = parse_speed(getattr(msg, "spd", None), "kn", "RMC speed")
+        course = parse_course(getattr(msg, "cog", None), "RMC course")
         if t == self._last_t:
-            raise _Skip("duplicate", f"time {t} already reported")
+            raise SkipSentence("duplicate", f"time {t} already reported")
         epoch = self._epoch_for(tod, out)
         if epoch.void:
             self._skip("void_fix", "RMC of a void epoch")
             return
         if epoch.rmc is not None:
-            raise _Skip("duplicate", "second RMC of the epoch")
+            raise SkipSentence("duplicate", "second RMC of the epoch")
         epoch.rmc = _Rmc(t, lat, lon, speed, course)
         epoch.held += 1
         self._close_if_complete(out)
 
     def _on_gga(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
         self._stream_has_gga = True
-        tod = _time_of_day(msg)
+        tod = parse_time_of_day(msg)
         quality = getattr(msg, "quality", "")
         if not isinstance(quality, int):
-            raise _Skip("garbled", "GGA without fix quality")
+            raise SkipSentence("garbled", "GGA without fix quality")
         if quality == 0:
             self._void(tod, out, "GGA quality 0")
             return
         if tod is None:
-            raise _Skip("no_time", "GGA without valid time")
+            raise SkipSentence("no_time", "GGA without valid time")
         if not 0 < quality <= 9:
-            raise _Skip("invalid_value", f"GGA quality {quality}")
+            raise SkipSentence("invalid_value", f"GGA quality {quality}")
         hdop = getattr(msg, "HDOP", "")
         if hdop == "":
             hdop = None
         elif not (isinstance(hdop, float) and math.isfinite(hdop) and hdop >= 0.0):
-            raise _Skip("invalid_value", f"HDOP {hdop!r}")
+            raise SkipSentence("invalid_value", f"HDOP {hdop!r}")
         if self._pending is None and tod == self._last_tod:
-            raise _Skip("unpaired", "GGA after its epoch was closed")
+            raise SkipSentence("unpaired", "GGA after its epoch was closed")
         epoch = self._epoch_for(tod, out)
         if epoch.void:
             self._skip("void_fix", "GGA of a void epoch")
             return
         if epoch.gga_seen:
-            raise _Skip("duplicate", "second GGA of the epoch")
+            raise SkipSentence("duplicate", "second GGA of the epoch")
         epoch.gga_seen = True
         epoch.fix_quality = quality
         epoch.hdop = hdop
@@ -511,22 +511,22 @@ class NmeaReader:
     def _on_vtg(self, msg: NMEAMessage, out: list[VehicleReport]) -> None:
         for name, unit in (("cogtUnit", "T"), ("sognUnit", "N"), ("sogkUnit", "K")):
             if getattr(msg, name, "") not in ("", unit):
-                raise _Skip("garbled", f"VTG {name} {getattr(msg, name)!r}")
+                raise SkipSentence("garbled", f"VTG {name} {getattr(msg, name)!r}")
         data: _Vtg | None = None  # None: void VTG (mode N)
         if getattr(msg, "posMode", "") != "N":
-            course = _course(getattr(msg, "cogt", None), "VTG course")
-            speed = _speed(getattr(msg, "sogn", None), "kn", "VTG speed")
+            course = parse_course(getattr(msg, "cogt", None), "VTG course")
+            speed = parse_speed(getattr(msg, "sogn", None), "kn", "VTG speed")
             if speed is None:
-                speed = _speed(getattr(msg, "sogk", None), "km/h", "VTG speed")
+                speed = parse_speed(getattr(msg, "sogk", None), "km/h", "VTG speed")
             data = _Vtg(speed, course)
         epoch = self._pending
         if epoch is None:
-            raise _Skip("unpaired", "VTG with no epoch in progress")
+            raise SkipSentence("unpaired", "VTG with no epoch in progress")
         if epoch.void:
             self._skip("void_fix", "VTG of a void epoch")
             return
         if epoch.vtg_seen:
-            raise _Skip("duplicate", "second VTG of the epoch")
+            raise SkipSentence("duplicate", "second VTG of the epoch")
         epoch.vtg_seen = True
         if data is None:
             self._skip("void_fix", "VTG mode N")
@@ -569,7 +569,7 @@ class NmeaReader:
             self._last_tod = epoch.tod
         try:
             report = self._report(epoch)
-        except _Skip as skip:
+        except SkipSentence as skip:
             if epoch.held:
                 self._skip(skip.reason, skip.detail, epoch.held)
             return
@@ -580,20 +580,20 @@ class NmeaReader:
 
     def _report(self, epoch: _Epoch) -> VehicleReport:
         if epoch.void:
-            raise _Skip("void_fix", f"epoch {epoch.tod} is void")
+            raise SkipSentence("void_fix", f"epoch {epoch.tod} is void")
         rmc = epoch.rmc
         if rmc is None:
-            raise _Skip("unpaired", f"epoch {epoch.tod} has no usable RMC")
+            raise SkipSentence("unpaired", f"epoch {epoch.tod} has no usable RMC")
         vtg = epoch.vtg or _Vtg(None, None)
         speed = rmc.speed_mps if rmc.speed_mps is not None else vtg.speed_mps
         course = rmc.course_deg if rmc.course_deg is not None else vtg.course_deg
         if speed is None:
-            raise _Skip("no_speed", f"epoch {epoch.tod} has no speed")
+            raise SkipSentence("no_speed", f"epoch {epoch.tod} has no speed")
         self._check_time(rmc.t)
         course_missing = course is None
         if course is None:
             if speed >= self.stopped_speed_mps:
-                raise _Skip("no_course", f"epoch {epoch.tod}: no course at {speed:.2f} m/s")
+                raise SkipSentence("no_course", f"epoch {epoch.tod}: no course at {speed:.2f} m/s")
             course = self._last_course if self._last_course is not None else 0.0
         try:
             report = VehicleReport(
@@ -609,7 +609,7 @@ class NmeaReader:
                 fix_quality=epoch.fix_quality,
             )
         except InvalidReportError as err:
-            raise _Skip("invalid_value", str(err)) from err
+            raise SkipSentence("invalid_value", str(err)) from err
         if course_missing:
             self._stats.flagged["course_missing"] += 1
             logger.debug("%s: course missing at t=%s, using %s", self.vehicle_id, rmc.t, course)
@@ -638,7 +638,7 @@ class NmeaReader:
             self._candidate_t = None
             return
         if t == last:
-            raise _Skip("duplicate", f"time {t} already reported")
+            raise SkipSentence("duplicate", f"time {t} already reported")
         cand = self._candidate_t
         if cand is not None and 0.0 < t - cand <= self.max_time_jump_s:
             self._candidate_t = None
@@ -652,8 +652,8 @@ class NmeaReader:
             return
         self._candidate_t = t
         if t < last:
-            raise _Skip("time_backwards", f"time {t} before {last}")
-        raise _Skip("time_jump", f"time {t} is {t - last:.1f} s after {last}")
+            raise SkipSentence("time_backwards", f"time {t} before {last}")
+        raise SkipSentence("time_jump", f"time {t} is {t - last:.1f} s after {last}")
 
     def _skip(self, reason: str, detail: str, count: int = 1) -> None:
         self._stats.skipped[reason] += count

@@ -1,6 +1,6 @@
 """Field parsers of the NMEA reader (:mod:`antikol.ingest.nmea`): time of day, date,
 coordinates, speed and course of a parsed sentence, each rejecting doubtful values with
-:class:`_Skip` (a reason of :data:`antikol.ingest.nmea.SKIP_REASONS`).
+:class:`SkipSentence` (a reason of :data:`antikol.ingest.nmea.SKIP_REASONS`).
 """
 
 from __future__ import annotations
@@ -15,16 +15,26 @@ from pynmeagps import NMEAMessage
 from antikol.ingest.nmea_spec import KMH_PER_MPS, KNOT_MPS
 from antikol.report import MAX_SPEED_MPS
 
-__all__: list[str] = []  # internal to the reader
+# Used by the reader only; public names so that it does not reach into private ones.
+__all__ = [
+    "LEAP_SECOND",
+    "SkipSentence",
+    "parse_coordinate",
+    "parse_course",
+    "parse_rmc_date",
+    "parse_speed",
+    "parse_time_of_day",
+    "raw_field",
+]
 
 _HHMMSS = re.compile(r"\d{6}(?:\.\d{1,6})?")
 _DDMMYY = re.compile(r"\d{6}")
-_LEAP = re.compile(r"235960(?:\.(?P<frac>\d{1,6}))?")
+LEAP_SECOND = re.compile(r"235960(?:\.(?P<frac>\d{1,6}))?")
 _DDMM = re.compile(r"(?P<deg>\d{2,3})(?P<min>\d{2}\.\d+)")
 
 
-class _Skip(Exception):
-    """Internal: a sentence is rejected for ``reason``."""
+class SkipSentence(Exception):
+    """A sentence is rejected for ``reason`` (one of the reader's skip reasons)."""
 
     def __init__(self, reason: str, detail: str) -> None:
         super().__init__(detail)
@@ -32,16 +42,17 @@ class _Skip(Exception):
         self.detail = detail
 
 
-def _raw(msg: NMEAMessage, index: int) -> str:
+def raw_field(msg: NMEAMessage, index: int) -> str:
+    """The field at payload ``index`` as received (empty when the sentence is shorter)."""
     payload = msg.payload
     return str(payload[index]) if index < len(payload) else ""
 
 
-def _time_of_day(msg: NMEAMessage) -> time | None:
+def parse_time_of_day(msg: NMEAMessage) -> time | None:
     """UTC time of day of an RMC or GGA (first field ``hhmmss[.ss]``), ``None`` if invalid."""
     value = getattr(msg, "time", None)
-    raw = _raw(msg, 0)
-    leap = _LEAP.fullmatch(raw)
+    raw = raw_field(msg, 0)
+    leap = LEAP_SECOND.fullmatch(raw)
     if leap is not None:  # 23:59:60.f: the last millisecond of the day (see *Midnight*)
         frac = leap["frac"] or "0"
         return time(23, 59, 59, 999000 + int(frac.ljust(6, "0")) // 1000)
@@ -50,32 +61,34 @@ def _time_of_day(msg: NMEAMessage) -> time | None:
     return value
 
 
-def _rmc_date(msg: NMEAMessage) -> date | None:
+def parse_rmc_date(msg: NMEAMessage) -> date | None:
     """Date of an RMC (ninth field ``ddmmyy``), ``None`` if invalid."""
     value = getattr(msg, "date", None)
-    if not (isinstance(value, date) and _DDMMYY.fullmatch(_raw(msg, 8))):
+    if not (isinstance(value, date) and _DDMMYY.fullmatch(raw_field(msg, 8))):
         return None
     return value
 
 
-def _coordinate(msg: NMEAMessage, index: int, name: str, hemi_name: str, limit: float) -> float:
+def parse_coordinate(
+    msg: NMEAMessage, index: int, name: str, hemi_name: str, limit: float
+) -> float:
     """Signed degrees from the raw ``(d)ddmm.mmmm`` field at payload ``index``."""
-    raw = _raw(msg, index)
+    raw = raw_field(msg, index)
     hemi = getattr(msg, hemi_name, "")
     value = getattr(msg, name, "")
     match = _DDMM.fullmatch(raw)
     if match is None or not isinstance(value, float):
-        raise _Skip("garbled", f"{name} {raw!r}")
+        raise SkipSentence("garbled", f"{name} {raw!r}")
     negative, positive = ("S", "N") if name == "lat" else ("W", "E")
     if hemi not in (negative, positive):
-        raise _Skip("garbled", f"{hemi_name} {hemi!r}")
+        raise SkipSentence("garbled", f"{hemi_name} {hemi!r}")
     # 60.0 is tolerated: some writers (pynmeagps's own ddd2dmm) round 59.999995 up to it.
     if float(match["min"]) > 60.0 or abs(value) > limit:
-        raise _Skip("invalid_value", f"{name} {raw!r}")
+        raise SkipSentence("invalid_value", f"{name} {raw!r}")
     return -abs(value) if hemi == negative else abs(value)
 
 
-def _speed(value: object, unit: Literal["kn", "km/h"], what: str) -> float | None:
+def parse_speed(value: object, unit: Literal["kn", "km/h"], what: str) -> float | None:
     """Speed in m/s from a decoded field in knots or km/h (``None`` when empty).
 
     Knots are multiplied by 1852/3600, km/h divided by 3.6.
@@ -83,17 +96,17 @@ def _speed(value: object, unit: Literal["kn", "km/h"], what: str) -> float | Non
     if value is None or value == "":
         return None
     if not (isinstance(value, float) and math.isfinite(value) and value >= 0.0):
-        raise _Skip("invalid_value", f"{what} {value!r} {unit}")
+        raise SkipSentence("invalid_value", f"{what} {value!r} {unit}")
     speed = value * KNOT_MPS if unit == "kn" else value / KMH_PER_MPS
     if speed > MAX_SPEED_MPS:
-        raise _Skip("invalid_value", f"{what} {value!r} {unit} above {MAX_SPEED_MPS:g} m/s")
+        raise SkipSentence("invalid_value", f"{what} {value!r} {unit} above {MAX_SPEED_MPS:g} m/s")
     return speed
 
 
-def _course(value: object, what: str) -> float | None:
+def parse_course(value: object, what: str) -> float | None:
     """Course in degrees from a decoded field (``None`` when empty)."""
     if value is None or value == "":
         return None
     if not (isinstance(value, float) and 0.0 <= value <= 360.0):
-        raise _Skip("invalid_value", f"{what} {value!r}")
+        raise SkipSentence("invalid_value", f"{what} {value!r}")
     return 0.0 if value == 360.0 else value

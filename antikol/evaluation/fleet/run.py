@@ -45,8 +45,8 @@ from antikol.evaluation.fleet.stages import (
     IngestResult,
     PositionResult,
     WindowResult,
-    _check_count,
     analyse_window,
+    check_count,
     ingest_partition,
     load_map_cached,
     position_vehicles,
@@ -143,7 +143,7 @@ def replay_archive(
         Local cluster: silence Dask's own log lines (a failed task is still logged here,
         once, and reported in the summary).
     """
-    _check_count("retries", retries, minimum=0)
+    check_count("retries", retries, minimum=0)
     dask_log = logging.getLogger("distributed")
     level = dask_log.level
     if quiet:

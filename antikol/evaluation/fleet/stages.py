@@ -97,6 +97,7 @@ __all__ = [
     "PositionResult",
     "WindowResult",
     "analyse_window",
+    "check_count",
     "ingest_partition",
     "load_map_cached",
     "position_vehicles",
@@ -174,7 +175,7 @@ class FleetConfig:
         _check_real("margin_m", self.margin_m, lo=0.0)
         _check_real("day_offset_s", self.day_offset_s)
         _check_real("region_m", self.region_m, lo=0.0, strict=True, allow_inf=True)
-        _check_count("group", self.group, minimum=1)
+        check_count("group", self.group, minimum=1)
         if abs(self.window_s / self.cycle_s - round(self.window_s / self.cycle_s)) > 1e-9:
             raise InvalidArgumentError("window_s", self.window_s, "must be a multiple of cycle_s")
         if self.margin_m < self.interaction_reach_m():
@@ -255,8 +256,14 @@ def _check_real(
         raise InvalidArgumentError(name, value, f"must be {'>' if strict else '>='} {lo:g}")
 
 
-def _check_count(name: str, value: Any, *, minimum: int) -> None:
-    """Refuse anything but an int (not a bool) of at least ``minimum``."""
+def check_count(name: str, value: Any, *, minimum: int) -> None:
+    """Refuse anything but an int (not a bool) of at least ``minimum``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Naming ``name`` and ``value``.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise InvalidArgumentError(name, value, "must be an integer")
     if value < minimum:
