@@ -37,6 +37,7 @@ _ALONG_OVER_SWITCH = "along_error_over_a_switch.json"
 _OUTAGE_PAST_SWITCH = "outage_over_short_edges_past_a_switch.json"
 _START_BESIDE = "a_start_beside_the_other_direction_before_a_node.json"
 _OUTLIER_STANDING = "an_outlier_while_standing_at_a_node.json"
+_STANDING_PAST_SWITCH = "standing_past_a_switch_beside_a_split_branch.json"
 _CURVE_PAIR = "two_tracks_one_way_through_a_curve.json"
 _SWUNG_BELIEF = "a_swung_belief_before_an_outage.json"
 _PAST_A_JUNCTION = "an_outage_past_a_switch_and_a_junction.json"
@@ -606,6 +607,24 @@ def test_one_outlier_while_standing_at_a_node_does_not_move_the_tram():
     out = _replay_recorded(net, _OUTLIER_STANDING, "T01")
     places = [net.point_at(p.edge_id, p.offset_m) for p in out if p.t >= 503.0]
     assert max(math.dist(places[0], q) for q in places) < 5.0
+
+
+def test_a_tram_standing_past_a_switch_does_not_drift_to_the_branch_with_more_edges():
+    # street GPS: a tram stands (for an hour, here its last 320 s) on edge 478, 13 m past
+    # the switch at the end of 475; the other branch is drawn as two edges, 471 (10.2 m)
+    # and 472. A standing tram's fixes weigh next to nothing, but every hypothesis gave
+    # its whole probability to each place its fix offered: the branch with two edges near
+    # the fix offered two, and doubled its share at every fix, until the tram was reported
+    # confident on 471/472 for 15 minutes
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _STANDING_PAST_SWITCH, "T02")
+    assert {p.edge_id for p in out} <= {475, 478}  # at the switch or past it, its own way
+    # (a fresh start, standing: the branches share what the first fixes said, and
+    # standing on adds nothing; before, the other branch held 0.98 after 20 s)
+    other_branch = [
+        sum(h.probability for h in p.hypotheses if h.edge_id in (471, 472)) for p in out
+    ]
+    assert max(other_branch) < 0.75
 
 
 def test_one_fix_off_in_a_curve_does_not_hand_the_tram_to_the_track_beside():

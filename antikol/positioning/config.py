@@ -171,7 +171,10 @@ class PositioningConfig:
         emission log-likelihood is scaled by ``standstill_evidence_weight``: the white part
         of the GPS error is itself correlated at a standstill, so repeated fixes are not
         independent evidence. The move cost of its candidates is scaled the same way: at a
-        standstill they move with the fix's own scatter, not with the vehicle.
+        standstill they move with the fix's own scatter, not with the vehicle. And each
+        hypothesis shares its probability over the places it reaches (its move weights sum
+        to one): a place with more candidates near the fix (a branch drawn as two edges)
+        gains nothing from a long stop.
     standstill_evidence_s : float
         The weight of a standing vehicle's fixes (not of its moves) decays further with the
         time it has stood: ``standstill_evidence_weight × exp(-stood / standstill_evidence_s)``.

@@ -268,6 +268,13 @@ def score_fixes(
     enters_wrong = wrong[pc] & reach.allowed[pss]
     trans = trans + np.where(enters_wrong, c.wrong_way_entry_log_prior, 0.0)
     trans = np.where(np.isfinite(trans), trans, _NEG_INF)
+    # a standing vehicle's fixes tell next to nothing (above), and its hypotheses must not
+    # gain from it either: each one hands on its probability, shared over the places its
+    # fix offers, instead of giving it whole to each (a switch offers a place on every
+    # branch, and a tram standing past it would drift to the side with more places)
+    still = standing[cv[pc]]
+    if still.any():
+        trans = _shared_out(trans, still, prow[pc] * valid.shape[1] + pk)
 
     pcv = cv[pc]
     parent = FixErrorState(*(getattr(fleet, name)[pr, pk] for name in FIX_ERROR_FIELDS))
@@ -446,6 +453,22 @@ def score_fixes(
         error_cols,
         stats,
     )
+
+
+def _shared_out(trans: FloatArray, which: BoolArray, parent_key: IntArray) -> FloatArray:
+    """``trans`` (log, per pair) of the pairs ``which`` normalised over the pairs of the
+    same parent (``parent_key``): each parent's outgoing weights sum to one."""
+    at = np.flatnonzero(which & np.isfinite(trans))
+    if not len(at):
+        return trans
+    keys, group = np.unique(parent_key[at], return_inverse=True)
+    top = np.full(len(keys), _NEG_INF)
+    np.maximum.at(top, group, trans[at])
+    total = np.zeros(len(keys))
+    np.add.at(total, group, np.exp(trans[at] - top[group]))
+    out = trans.copy()
+    out[at] = trans[at] - (top[group] + np.log(total[group]))
+    return out
 
 
 def _mixture_ll(resid: Any, var: Any, outlier_weight: float, floor: Any) -> Any:
