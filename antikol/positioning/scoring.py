@@ -272,11 +272,11 @@ def score_fixes(
     # gain from it either: each one hands on its probability, shared over the places its
     # fix offers, instead of giving it whole to each (a switch offers a place on every
     # branch, and a tram standing past it would drift to the side with more places)
-    still = standing[cv[pc]]
-    if still.any():
-        trans = _shared_out(trans, still, prow[pc] * valid.shape[1] + pk)
-
     pcv = cv[pc]
+    still = standing[pcv]
+    if still.any():
+        trans = _shared_out(trans, still, pcv * valid.shape[1] + pk, n * valid.shape[1])
+
     parent = FixErrorState(*(getattr(fleet, name)[pr, pk] for name in FIX_ERROR_FIELDS))
     # the error of the predicted distance: the odometer's, or the speeds' over the interval
     run_var = np.where(
@@ -455,16 +455,19 @@ def score_fixes(
     )
 
 
-def _shared_out(trans: FloatArray, which: BoolArray, parent_key: IntArray) -> FloatArray:
+def _shared_out(
+    trans: FloatArray, which: BoolArray, parent: IntArray, n_parents: int
+) -> FloatArray:
     """``trans`` (log, per pair) of the pairs ``which`` normalised over the pairs of the
-    same parent (``parent_key``): each parent's outgoing weights sum to one."""
+    same parent (``parent``, below ``n_parents``): each parent's outgoing weights sum to
+    one."""
     at = np.flatnonzero(which & np.isfinite(trans))
     if not len(at):
         return trans
-    keys, group = np.unique(parent_key[at], return_inverse=True)
-    top = np.full(len(keys), _NEG_INF)
+    group = parent[at]
+    top = np.full(n_parents, _NEG_INF)
     np.maximum.at(top, group, trans[at])
-    total = np.zeros(len(keys))
+    total = np.zeros(n_parents)
     np.add.at(total, group, np.exp(trans[at] - top[group]))
     out = trans.copy()
     out[at] = trans[at] - (top[group] + np.log(total[group]))
