@@ -6,8 +6,9 @@
   :mod:`~antikol.positioning.candidates` (places near each fix),
   :mod:`~antikol.positioning.scoring` (one HMM step), :mod:`~antikol.positioning.fleet`
   (the state arrays), :mod:`~antikol.positioning.deadreckoning` (moving along the track
-  without a fix) and :mod:`~antikol.positioning.placing` (the reported place of each
-  vehicle, most of a fleet in arrays);
+  without a fix), :mod:`~antikol.positioning.outages` (an outage as evidence of a tunnel)
+  and :mod:`~antikol.positioning.placing` (the reported place of each vehicle, most of a
+  fleet in arrays);
 * :mod:`antikol.positioning.reach` — along-track distances between track states, and
   :mod:`~antikol.positioning.headings` — track headings every metre (both once per map);
 * :mod:`antikol.positioning.fixerror` — each hypothesis' filter of its fix error (GPS bias

@@ -150,6 +150,13 @@ class PositioningConfig:
     odometer_dead_reckoning_m : float
         Longest distance bridged on the odometer (else on the speeds of reports without a
         fix) alone before the position is lost, m.
+    surface_outage_s : float
+        Mean length of a GPS outage in the open (a street canyon, a bridge overhead), s:
+        every second a report says it has no fix, hypotheses outside tunnels lose
+        ``1 / surface_outage_s`` nats against those in a tunnel, so that a tram whose
+        fixes stopped at a switch before a tunnel's portal is found in the tunnel, not on
+        the surface track beside it (:mod:`antikol.positioning.outages`); 0 takes an
+        outage as no evidence.
     lost_sigma_m : float
         Along-track uncertainty at which a dead-reckoned position is lost, m.
     reset_gap_s : float
@@ -236,6 +243,7 @@ class PositioningConfig:
     odometer_scale_sigma: float = 0.03
     speed_distance_sigma_fraction: float = 0.03
     odometer_dead_reckoning_m: float = 2000.0
+    surface_outage_s: float = 5.0
     lost_sigma_m: float = 60.0
     reset_gap_s: float = 30.0
     accel_sigma_mps2: float = 0.6

@@ -16,10 +16,12 @@ from collections.abc import Iterable, Mapping
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fleet import SLOT_FIELDS, FleetState
 from antikol.positioning.kalman import track_distance_step
+from antikol.positioning.outages import weigh_outage
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import Hypothesis
 from antikol.report import VehicleReport
@@ -42,9 +44,14 @@ def dead_reckon(
     odometer: float,
     *,
     speeds: bool = True,
+    tunnel_edges: npt.NDArray[np.bool_] | None = None,
 ) -> None:
     """A report without a position: advance on the odometer, else (``speeds``) on the
     reported speeds, else only note the time.
+
+    ``tunnel_edges`` (per edge of the map, whether it is a tunnel) when the report says the
+    receiver has no fix, not when its fix was refused: the interval without a fix is then
+    weighed as evidence of a tunnel (:mod:`antikol.positioning.outages`).
 
     Without an odometer the run is the mean of the previous and the reported speed over
     the interval, known to ``hypot(speed_sigma_mps·dt, speed_distance_sigma_fraction·run)``:
@@ -90,6 +97,17 @@ def dead_reckon(
             fleet.kf, row, np.float64(report.t), np.float64(travelled), np.float64(sigma_m)
         )
     carry(fleet, reach, net, row, travelled, report.route)
+    if tunnel_edges is not None and weigh_outage(
+        fleet,
+        row,
+        tunnel_edges,
+        dt,
+        surface_outage_s=config.surface_outage_s,
+        switch_probability=config.switch_probability,
+        floor=10.0 * config.min_probability,
+    ):
+        stats["outage_lineage_switch"] += 1
+        fleet.confident_run[row] = 0  # the reported place's run starts again
     fleet.z[row] += travelled
     standing = travelled < config.standstill_distance_m and math.isfinite(dt)
     fleet.stood[row] = fleet.stood[row] + dt if standing else 0.0

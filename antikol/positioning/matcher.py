@@ -143,6 +143,7 @@ class Positioner:
         self._reported: dict[str, tuple[int, int]] = {}
         self._reported_before: dict[str, tuple[int, int]] = {}
         self._loops = loop_edges(track_map, self.config.search_radius_m)
+        self._tunnel_edges = np.array([e.tunnel for e in track_map.edges], dtype=bool)
 
     # -- fleet storage -------------------------------------------------------------------
     def _row_of(self, vehicle_id: str) -> int:
@@ -433,7 +434,7 @@ class Positioner:
         self.stats.update({k: int(v.sum()) for k, v in faults.items() if v.any()})
 
         # 2. reports without a position fix: dead reckoning on the odometer, if any
-        self._dead_reckon(np.flatnonzero(keep & no_fix), reports, rows, odo)
+        self._dead_reckon(np.flatnonzero(keep & no_fix), reports, rows, odo, outage=True)
         fix = keep & ~no_fix
         if not fix.any():
             return
@@ -470,14 +471,16 @@ class Positioner:
 
     def _dead_reckon(
         self, which: IntArray, reports: list[VehicleReport], rows: IntArray, odo: FloatArray,
-        *, speeds: bool = True,
+        *, speeds: bool = True, outage: bool = False,
     ) -> None:  # fmt: skip
         """Carry the vehicles of reports ``which`` (no usable fix) on their odometers, else
         (``speeds``) on their speeds; the reported place's probability follows the
-        hypotheses split at switches."""
+        hypotheses split at switches. ``outage``: the reports have no fix (not a refused
+        one), which tells a tunnel from open track."""
+        tunnels = self._tunnel_edges if outage else None
         for i in which.tolist():
             dead_reckon(self._f, self.reach, self.net, self.config, self.stats, rows[i],
-                        reports[i], odo[i], speeds=speeds)  # fmt: skip
+                        reports[i], odo[i], speeds=speeds, tunnel_edges=tunnels)  # fmt: skip
         if len(which):
             self._f.place[rows[which]] = self._place_probabilities(rows[which])
 
