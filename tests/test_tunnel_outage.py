@@ -178,7 +178,7 @@ def test_weighing_keeps_a_distribution_and_moves_whole_slots(tunnel_of, weights,
     p = np.exp(fleet.hp[0, :m])
     assert p.sum() == pytest.approx(1.0)
     contrast = tunnel_edges.any() and not tunnel_edges.all()
-    if not contrast:
+    if not contrast or dt_s == 0.0:
         assert not moved and np.array_equal(fleet.hp[0], before["hp"])
         return
     # slots keep their other fields together: the same permutation for every field
@@ -203,3 +203,33 @@ def test_weighing_keeps_a_distribution_and_moves_whole_slots(tunnel_of, weights,
         again, 0, tunnel_edges, dt_s, surface_outage_s=0.0, switch_probability=0.75, floor=1e-3
     )
     assert np.array_equal(again.hp, kept)
+
+
+def test_an_operator_feed_saying_its_position_is_not_gps_puts_the_tram_in_the_tunnel(
+    portal, tmp_path
+):
+    """End to end from an HFP archive: in the tunnel the feed's ``loc`` is ``ODO`` (the
+    position is the operator's own dead reckoning, not a fix), which is all it says."""
+    import json
+    from datetime import UTC, datetime
+
+    from antikol.ingest import read_hfp
+
+    net, tunnel, _ = portal
+    drive = _drive([*TRUNK, *RAMP[1:], *TUNNEL[1:]], 75, fix_until_y=SWITCH_Y - 4.0)
+    start = datetime(2024, 3, 1, 8, 0, tzinfo=UTC).timestamp()
+    lines = []
+    for r in drive:
+        stamp = datetime.fromtimestamp(start + r.t, UTC).strftime("%Y-%m-%dT%H:%M:%S.000Z")
+        vp = {"oper": 40, "veh": 412, "tst": stamp, "lat": r.lat, "long": r.lon,
+              "spd": r.speed_mps, "hdg": round(r.course_deg), "odo": r.odometer_m,
+              "loc": "GPS" if r.fix_quality else "ODO"}  # fmt: skip
+        lines.append(json.dumps({"VP": vp}))
+    path = tmp_path / "hfp.jsonl"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    log = read_hfp(path)
+    assert not log.problems and len(log.reports) == len(drive)
+    pos = Positioner(net)
+    out = [pos.update(r) for r in log.reports]
+    in_tunnel_from = start + next(r.t for r in drive if r.fix_quality == 0) + 15.0
+    assert all(p.edge_id == tunnel for p in out if p.t >= in_tunnel_from + 8.0)

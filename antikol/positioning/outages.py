@@ -98,8 +98,10 @@ def weigh_outage(
     bool
         Whether the reported lineage moved to another place.
     """
+    if surface_outage_s <= 0.0 or not dt_s > 0.0:  # no evidence (also NaN)
+        return False
     slots = np.flatnonzero(fleet.hs[row] >= 0)
-    if surface_outage_s <= 0.0 or len(slots) < 2 or slots[0] != 0:  # (slot 0 fills first)
+    if len(slots) < 2 or slots[0] != 0:  # (slot 0, the lineage, is filled first)
         return False
     states = fleet.hs[row, slots]
     covered = tunnel_edges[states >> 1]
