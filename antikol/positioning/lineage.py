@@ -6,7 +6,10 @@ Slot 0 is the **lineage** the reported position follows: the best candidate, unl
 not descend from the previous slot 0 and is not decisive (below ``switch_probability``)
 while the previous lineage is still plausible — all its descendants together, as past a
 switch it splits over the branches — so successive reported positions stay connected by
-the track. The lineage is then followed on its most probable descendant. A standing
+the track. The lineage is then followed on its most probable descendant. Where the best
+candidate lies on a track beside the lineage's that runs the same way and meets it again a
+short way ahead (``same_way``, opt-in, :mod:`antikol.positioning.siblings`), the lineage can
+be held however decisive the other is. A standing
 vehicle has not left its lineage's place: only very decisive evidence
 (``standing_switch_probability``) moves it to another, however little is left of the
 lineage (the fixes of a tram waiting beside another track drift; the tram does not).
@@ -20,6 +23,7 @@ not carry the filter with it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -62,6 +66,7 @@ def plan_slots(
     min_probability: float,
     switch_probability: float,
     standing_switch_probability: float,
+    same_way: Callable[[IntArray, IntArray, IntArray], BoolArray] | None = None,
 ) -> SlotPlan:
     """Keep the best ``k`` candidates of each committed report and order them into slots.
 
@@ -82,6 +87,11 @@ def plan_slots(
         Slots per vehicle.
     min_probability, switch_probability, standing_switch_probability : float
         See :class:`~antikol.positioning.config.PositioningConfig`.
+    same_way : callable, optional
+        ``same_way(report, best, lineage)``: report indices, and candidate indices of the
+        best candidates and of the lineage's most probable descendants that would replace
+        them: whether each lineage is held, however decisive the best (tracks side by side
+        that meet again).
 
     Returns
     -------
@@ -96,24 +106,34 @@ def plan_slots(
     member &= committed[group]
     best = rank_order[bounds[go]]
     decisive = np.where(standing[go], standing_switch_probability, switch_probability)
-    keep_best = fresh[go] | (parent[best] == 0) | (p[best] >= decisive)
+    of_own = fresh[go] | (parent[best] == 0)
+    keep_best = of_own | (p[best] >= decisive)
     chosen = best
-    if not keep_best.all():  # (most cycles: every best descends from its lineage)
+    if not of_own.all():  # (most cycles: every best descends from its lineage)
         of_lineage = parent[rank_order] == 0
-        lineage_at = np.where(member & (place > 0) & of_lineage, np.arange(n_ranked), n_ranked)
+        in_reach = committed[group] & (place > 0) & (place < k) & of_lineage
+        lineage_at = np.where(in_reach, np.arange(n_ranked), n_ranked)
         first_lineage = np.full(len(bounds), n_ranked)
         np.minimum.at(first_lineage, group, lineage_at)
         first_lineage = first_lineage[go]
-        has_lineage = first_lineage < n_ranked
         lineage = rank_order[np.minimum(first_lineage, n_ranked - 1)]
+        has_lineage = first_lineage < n_ranked
+        kept = has_lineage & (p[lineage] >= min_probability)
         # the lineage is as plausible as all its descendants together: past a switch it
         # splits over the branches, and each branch alone may look implausible beside
         # another track
         lineage_mass = np.bincount(
             group[of_lineage], weights=p[rank_order[of_lineage]], minlength=len(bounds)
         )[go]
-        held = has_lineage & ((lineage_mass > 1.0 - switch_probability) | standing[go])
-        chosen = np.where(~keep_best & held, lineage, best)
+        held = kept & ~keep_best
+        held &= (lineage_mass > 1.0 - switch_probability) | standing[go]
+        ask = np.flatnonzero(has_lineage & ~of_own & ~held)
+        if same_way is not None and len(ask):
+            # however little is left of it: it is held only until the tracks meet
+            beside = same_way(go[ask], best[ask], lineage[ask])
+            held[ask] = beside
+            member[first_lineage[ask[beside]]] = True
+        chosen = np.where(held, lineage, best)
     # slots: the chosen one first, then the other members in rank order
     chosen_of = np.full(len(bounds), -1)
     chosen_of[go] = chosen

@@ -80,6 +80,7 @@ from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
+from antikol.positioning.siblings import SameWaySiblings
 from antikol.positioning.speedunits import in_recognised_units, learn_speed_units
 from antikol.report import VehicleReport
 from trackmap import TrackMap
@@ -129,6 +130,7 @@ class Positioner:
         self.net = track_map
         self.config = config or PositioningConfig()
         self.reach = ReachTable.for_map(track_map, reach_m=self.config.reach_m)
+        self._siblings = SameWaySiblings(track_map, self.reach, self.config.same_way_hold_m)
         self.stats: Counter[str] = Counter()
         self._arrivals = Arrivals(track_map)
         self.fixes = DiscreteFixes(track_map, self.config, fix_points, fix_equipped)
@@ -600,6 +602,11 @@ class Positioner:
             min_probability=c.min_probability,
             switch_probability=c.switch_probability,
             standing_switch_probability=c.standing_switch_probability,
+            same_way=lambda i, b, j: self._siblings.hold(
+                *(cs[b], co[b], cs[j], co[j]),
+                reported=[self._reported.get(reports[n].vehicle_id) for n in i.tolist()],
+                lineage_before=f.hs[rows[i], 0],
+            ),
         )
         r = rows[m_group]
         done = rows[go]

@@ -1,0 +1,211 @@
+"""Tracks side by side that run the same way and meet again ahead: where the reported
+position keeps its track rather than jump across.
+
+A vehicle's reported position follows one lineage of hypotheses
+(:mod:`antikol.positioning.lineage`), and moves to another when the evidence has moved
+there: a jump across to another track, which no permitted move connects. Between two
+tracks a few metres apart that run the same way and meet again a short way ahead — the
+platform tracks of a terminus, a passing loop, the two tracks of a bubble at a junction —
+the jump buys little and costs much:
+
+* both tracks lead to the same place, and the vehicle runs its way on either, so every
+  track ahead of it (what the analysis looks along) is the same a few metres on;
+* what tells such tracks apart is their lateral offset, a few metres, which is what a GPS
+  bias in a street is (several metres, persisting for tens of seconds, with jumps): a jump
+  of the bias moves the evidence across, and the lineage with it, and back;
+* a jump breaks the chain of reported positions, which a user reads as a vehicle that
+  changed track where no switch is.
+
+With :attr:`PositioningConfig.same_way_hold_m
+<antikol.positioning.config.PositioningConfig.same_way_hold_m>` set, the lineage is held on
+its own track there until the two tracks meet, where its hypotheses and the others join
+again — once the vehicle has been reported on it (a vehicle still held at the switch before
+the two tracks moves to the best at no break). Nothing else changes: the reported
+probability is the held lineage's own (a held position reads ``ambiguous`` once the
+evidence has moved), and the analysis weighs every hypothesis whichever one is reported.
+
+It is off by default because it costs more than it saves where the exact track counts: a
+tram put on the wrong one of two such tracks stays there, however sure the evidence, to
+their end, where the positioner used to correct it within a few seconds (a jump). On the
+street receiver (``python benchmarks/positioning_accuracy.py --gps urban --set
+same_way_hold_m=200``, seeds 4–6) it took the wrong estimates past switches from 7 to 35
+of 779 to save one of three windows no permitted route connects. A user who counts a
+same-way track as right, and a break in the chain of positions as a failure (a display of
+where the trams are, a trace checked without the exact track), may want it.
+
+>>> import numpy as np, trackmap
+>>> from trackmap.synthetic import SyntheticNetwork
+>>> from antikol.positioning.reach import ReachTable, state_id
+>>> board = SyntheticNetwork()
+>>> a = board.track([(0.0, 0.0), (100.0, 0.0)], oneway="yes")
+>>> upper = board.track([(100.0, 0.0), (110.0, 4.0), (190.0, 4.0), (200.0, 0.0)], oneway="yes")
+>>> lower = board.track([(100.0, 0.0), (200.0, 0.0)], oneway="yes")
+>>> b = board.track([(200.0, 0.0), (300.0, 0.0)], oneway="yes")
+>>> net = board.build()
+>>> siblings = SameWaySiblings(net, ReachTable.for_map(net, reach_m=400.0), meet_within_m=200.0)
+>>> def state(way):
+...     return state_id(next(e.edge_id for e in net.edges if way in e.way_ids), 1)
+>>> bool(siblings.hold([state(upper)], [50.0], [state(lower)], [50.0])[0])
+True
+>>> bool(siblings.hold([state(b)], [50.0], [state(a)], [50.0])[0])  # one track, ahead
+False
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, Final
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from shapely.ops import substring
+
+from antikol.positioning.reach import ReachTable, state_direction, state_edge, state_id
+from trackmap import Path
+
+__all__ = ["SIDE_BY_SIDE_M", "SameWaySiblings"]
+
+#: Two places farther apart than this are on tracks no GPS bias confuses, m.
+SIDE_BY_SIDE_M: Final = 10.0
+#: Tracks whose headings differ by more than this at the two places are not side by
+#: side (a branch leaving at an angle), degrees.
+_MAX_HEADING_DIFFERENCE_DEG: Final = 30.0
+
+IntArray = npt.NDArray[np.int64]
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+class SameWaySiblings:
+    """Which changes of lineage cross to a track that runs the same way beside the
+    lineage's and meets it again within ``meet_within_m`` ahead.
+
+    Parameters
+    ----------
+    net : trackmap.TrackMap
+    reach : ReachTable
+        The positioner's along-track distances and track headings.
+    meet_within_m : float
+        Farthest ahead of either track's start the two may meet, m (0: never hold; at most
+        the table's ``reach_m``).
+
+    Notes
+    -----
+    Two track states are siblings when some route ahead of each reaches a common track
+    within ``meet_within_m`` and the two routes up to it stay within ``SIDE_BY_SIDE_M``
+    of each other all the way (their Hausdorff distance): the two branches of a facing
+    switch lie that close only for their first metres, and are not siblings unless they
+    also run on side by side. The answer is per pair of states, kept once found.
+    """
+
+    def __init__(self, net: Any, reach: ReachTable, meet_within_m: float) -> None:
+        self.net = net
+        self.reach = reach
+        self.meet_within_m = min(float(meet_within_m), reach.reach_m)
+        self._pairs: dict[tuple[int, int], bool] = {}
+
+    def hold(
+        self,
+        best_state: Any,
+        best_offset_m: Any,
+        lineage_state: Any,
+        lineage_offset_m: Any,
+        *,
+        reported: Sequence[tuple[int, int] | None] | None = None,
+        lineage_before: Any = None,
+    ) -> BoolArray:
+        """Whether the lineage at each of its places is held against the best hypothesis.
+
+        Parameters
+        ----------
+        best_state, best_offset_m : array_like
+            The best hypothesis's track state (``2 * edge + (direction < 0)``) and offset
+            on its edge, m.
+        lineage_state, lineage_offset_m : array_like
+            The lineage's.
+        reported : sequence of (int, int) or None, optional
+            The (edge, direction) each vehicle was last reported on (None: not yet) ...
+        lineage_before : array_like of int, optional
+            ... and its lineage's previous track state: a lineage is held only where the
+            vehicle was reported on it. Held at the switch before the two tracks (not yet
+            reported on either), it moves to the best at no break in the chain.
+
+        Returns
+        -------
+        ndarray of bool
+            True where the two places lie side by side (within ``SIDE_BY_SIDE_M``, headings
+            within 30 degrees), neither lies ahead of the other within ``meet_within_m`` (a
+            move there is no jump), and their tracks are siblings (see Notes).
+        """
+        bs = np.atleast_1d(np.asarray(best_state, dtype=np.int64))
+        bo = np.atleast_1d(np.asarray(best_offset_m, dtype=float))
+        ls = np.atleast_1d(np.asarray(lineage_state, dtype=np.int64))
+        lo = np.atleast_1d(np.asarray(lineage_offset_m, dtype=float))
+        out = np.zeros(bs.shape, dtype=bool)
+        if self.meet_within_m <= 0.0 or len(bs) == 0:
+            return out
+        be, le = state_edge(bs), state_edge(ls)
+        bx, by = self.net.points_at(be, bo)
+        lx, ly = self.net.points_at(le, lo)
+        near = np.hypot(np.asarray(bx) - lx, np.asarray(by) - ly) <= SIDE_BY_SIDE_M
+        turn = self.reach.headings.at(be, bo, state_direction(bs)) - self.reach.headings.at(
+            le, lo, state_direction(ls)
+        )
+        near &= np.cos(np.radians(turn)) >= math.cos(math.radians(_MAX_HEADING_DIFFERENCE_DEG))
+        near &= bs != ls
+        if reported is not None and lineage_before is not None:
+            before = np.atleast_1d(np.asarray(lineage_before, dtype=np.int64)).tolist()
+            near &= np.array(
+                [
+                    r is not None and int(state_id(*r)) == s
+                    for r, s in zip(reported, before, strict=True)
+                ],
+                dtype=bool,
+            )
+        if not near.any():
+            return out
+        k = np.flatnonzero(near)
+        within = self.meet_within_m
+        apart = (self.reach.ahead(ls[k], lo[k], bs[k], bo[k], physical=False) > within) & (
+            self.reach.ahead(bs[k], bo[k], ls[k], lo[k], physical=False) > within
+        )
+        for i in k[apart].tolist():
+            out[i] = self._siblings(int(ls[i]), int(bs[i]))
+        return out
+
+    def _siblings(self, a: int, b: int) -> bool:
+        key = (min(a, b), max(a, b))
+        found = self._pairs.get(key)
+        if found is None:
+            found = self._pairs[key] = self._meet_beside(*key)
+        return found
+
+    def _ways(self, state: int) -> list[Path]:
+        """The permitted routes ahead of a state's entry, ``meet_within_m`` long."""
+        edge, direction = int(state_edge(state)), int(state_direction(state))
+        entry = 0.0 if direction == 1 else self.net.edge_length(edge)
+        return self.net.paths_ahead(edge, entry, direction, self.meet_within_m)
+
+    def _meet_beside(self, a: int, b: int) -> bool:
+        ways_a, ways_b = self._ways(a), self._ways(b)
+        for way_a in ways_a:
+            on_a = {(st.edge_id, int(st.direction)): st for st in way_a.steps}
+            for way_b in ways_b:
+                meet = next(
+                    (
+                        (on_a[key].start_m, st.start_m)
+                        for st in way_b.steps[1:]
+                        if (key := (st.edge_id, int(st.direction))) in on_a
+                        and on_a[key].start_m > 0.0
+                    ),
+                    None,
+                )
+                if meet is None or meet[0] <= 0.0 or meet[1] <= 0.0:
+                    continue
+                line_a = substring(self.net.path_geometry(way_a), 0.0, meet[0])
+                line_b = substring(self.net.path_geometry(way_b), 0.0, meet[1])
+                if shapely.hausdorff_distance(line_a, line_b) <= SIDE_BY_SIDE_M:
+                    return True
+        return False

@@ -1,0 +1,202 @@
+"""Tracks side by side that run the same way and meet again (issue 12).
+
+Two platform tracks of a terminus, or the two tracks of a passing loop, lie a few metres
+apart, run the same way and meet again a short way on. A jump of the GPS bias across them
+moves the evidence from one to the other; the reported position follows its lineage on
+its own track until the two meet rather than jump across, so that successive positions
+stay connected by the track. The branches of an ordinary junction, which part for good,
+and the two directions of a double track are no such pair.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import trackmap
+from antikol.evaluation.consistency import disconnected_windows, match_reports
+from antikol.positioning import PositioningConfig
+from antikol.positioning.lineage import plan_slots
+from antikol.positioning.reach import ReachTable, state_id
+from antikol.positioning.siblings import SameWaySiblings
+from tests._osm import FRAME, OsmBuilder
+from tests._paths import reports_along
+
+SPEED_MPS = 5.0
+#: The bubble: a straight platform track and one bowed 4 m to the east, from the switch
+#: at y = 300 m to the join at y = 420 m.
+STRAIGHT = [(0.0, 300.0), (0.0, 420.0)]
+BOWED = [(0.0, 300.0), (4.0, 312.0), (4.0, 408.0), (0.0, 420.0)]
+
+
+@pytest.fixture(scope="module")
+def bubble(tmp_path_factory):
+    """A one-way line through a bubble of two platform tracks; beside it, a junction whose
+    branch parts for good, and a track of the other direction 3.5 m west."""
+    b = OsmBuilder()
+    split, join = b.node(*STRAIGHT[0]), b.node(*STRAIGHT[1])
+    b.line([(0.0, 0.0), split], oneway="yes")
+    b.line([split, join], oneway="yes")
+    b.line([split, *BOWED[1:-1], join], oneway="yes")
+    b.line([join, (0.0, 900.0)], oneway="yes")
+    b.line([(-3.5, 900.0), (-3.5, 0.0)], oneway="yes")  # the other direction
+    fork = b.node(200.0, 0.0)
+    b.line([(200.0, -300.0), fork], oneway="yes")
+    b.line([fork, (200.0, 600.0)], oneway="yes")
+    b.line([fork, (204.0, 15.0), (260.0, 80.0), (600.0, 300.0)], oneway="yes")
+    net = trackmap.build(b.write_xml(tmp_path_factory.mktemp("bubble") / "bubble.osm"))
+    return net
+
+
+def _nearest(net, x: float, y: float):
+    """The track nearest a point of the drawing (metres)."""
+    lon, lat = FRAME.to_lonlat(x, y)
+    (cand, *_) = sorted(net.candidates(lon, lat, radius_m=1.0), key=lambda c: c.distance_m)
+    return cand
+
+
+def _edge_at(net, x: float, y: float) -> int:
+    return _nearest(net, x, y).edge_id
+
+
+def _state_at(net, x: float, y: float) -> tuple[int, float]:
+    """The permitted track state through a point, and its offset there."""
+    cand = _nearest(net, x, y)
+    edge = net.edges[cand.edge_id]
+    direction = 1 if edge.allows(1) else -1
+    return int(state_id(cand.edge_id, direction)), float(cand.offset_m)
+
+
+def _siblings(net):
+    return SameWaySiblings(net, ReachTable.for_map(net, reach_m=400.0), meet_within_m=200.0)
+
+
+def test_platform_tracks_are_siblings_and_parting_branches_are_not(bubble):
+    net = bubble
+    siblings = _siblings(net)
+    straight, s_off = _state_at(net, 0.0, 360.0)
+    bowed, b_off = _state_at(net, 4.0, 360.0)
+    assert siblings.hold([bowed], [b_off], [straight], [s_off]).tolist() == [True]
+    assert siblings.hold([straight], [s_off], [bowed], [b_off]).tolist() == [True]
+    # only once the vehicle was reported on the lineage's track, not held at the switch
+    on_straight, at_switch = (straight >> 1, 1), (_edge_at(net, 0.0, 200.0), 1)
+    for reported, held in ((on_straight, True), (at_switch, False), (None, False)):
+        got = siblings.hold(
+            [bowed], [b_off], [straight], [s_off], reported=[reported], lineage_before=[straight]
+        )
+        assert got.tolist() == [held]
+    # the two branches of a junction lie as close a few metres past the switch, but part
+    branch, br_off = _state_at(net, 204.0, 15.0)
+    main, m_off = _state_at(net, 200.0, 15.0)
+    assert siblings.hold([branch], [br_off], [main], [m_off]).tolist() == [False]
+    # the other direction's track is beside, but runs the other way
+    other = int(state_id(_edge_at(net, -3.5, 360.0), -1))
+    other_off = net.edges[other >> 1].length_m - 540.0
+    assert siblings.hold([other], [other_off], [straight], [s_off]).tolist() == [False]
+    # the same track ahead is no jump; a hold distance of 0 turns it off
+    ahead, a_off = _state_at(net, 0.0, 500.0)
+    assert siblings.hold([ahead], [a_off], [straight], [s_off]).tolist() == [False]
+    off = SameWaySiblings(net, ReachTable.for_map(net, reach_m=400.0), meet_within_m=0.0)
+    assert off.hold([bowed], [b_off], [straight], [s_off]).tolist() == [False]
+
+
+@settings(max_examples=60, deadline=None)
+@given(y_a=st.floats(302.0, 418.0), y_b=st.floats(302.0, 418.0))
+def test_the_sibling_relation_is_symmetric_and_local(bubble, y_a, y_b):
+    net = bubble
+    siblings = _siblings(net)
+    a, a_off = _state_at(net, 0.0, y_a)
+    b, b_off = _state_at(net, 4.0 if 312.0 <= y_b <= 408.0 else 0.0, y_b)
+    one = siblings.hold([a], [a_off], [b], [b_off])
+    other = siblings.hold([b], [b_off], [a], [a_off])
+    assert one.tolist() == other.tolist()
+    if a == b:
+        assert not one[0]  # one track: a move, not a jump
+    elif abs(y_a - y_b) > 10.0:
+        assert not one[0]  # not side by side
+
+
+def _plan(p_best: float, p_lineage: float, *, beside: bool | None):
+    calls: list[tuple[list[int], list[int]]] = []
+
+    def same_way(report, best, lineage):
+        assert report.tolist() == [0]
+        calls.append((best.tolist(), lineage.tolist()))
+        return np.full(len(best), bool(beside))
+
+    plan = plan_slots(
+        np.arange(2),
+        np.array([0, 2]),
+        np.array([p_best, p_lineage]),
+        np.array([1, 0]),  # the best descends from slot 1, the second from the lineage
+        np.array([0]),
+        fresh=np.array([False]),
+        standing=np.array([False]),
+        k=4,
+        min_probability=1e-4,
+        switch_probability=0.75,
+        standing_switch_probability=0.95,
+        same_way=None if beside is None else same_way,
+    )
+    return plan, calls
+
+
+def test_a_lineage_beside_the_best_is_held_however_little_is_left():
+    for p_lineage in (0.1, 1e-6):
+        plan, calls = _plan(1.0 - p_lineage, p_lineage, beside=True)
+        assert plan.chosen.tolist() == [1] and calls == [([0], [1])]
+        # held below min_probability, it keeps its slot 0 and the best its slot 1
+        assert dict(zip(plan.candidate.tolist(), plan.slot.tolist(), strict=True)) == {1: 0, 0: 1}
+        assert _plan(1.0 - p_lineage, p_lineage, beside=False)[0].chosen.tolist() == [0]
+        assert _plan(1.0 - p_lineage, p_lineage, beside=None)[0].chosen.tolist() == [0]
+    # asked only where the lineage would be left
+    assert _plan(0.6, 0.4, beside=True)[1] == []
+
+
+def _from_the_platform(*, bias_m: float, bias_until_y: float) -> list:
+    """A tram that starts its service standing 20 s at the straight platform track
+    (y = 330 m), then leaves north at 5 m/s; its fixes carry a bias of ``bias_m`` to the
+    east, towards the bowed track, until it passes ``bias_until_y`` (the satellite geometry
+    changes), and none after."""
+    line = [(0.0, 0.0), *STRAIGHT, (0.0, 900.0)]
+    standing = reports_along(
+        "T", line, start_m=330.0, speed_mps=0.0, t=np.arange(0.0, 20.0), frame=FRAME
+    )
+    leaving = reports_along(
+        "T", line, start_m=330.0, speed_mps=SPEED_MPS, t=np.arange(20.0, 140.0), frame=FRAME
+    )
+    rng = np.random.default_rng(7)
+    out = []
+    for r in [*standing, *leaving]:
+        x, y = (float(v) for v in FRAME.to_local(r.lon, r.lat))
+        x += (bias_m if y < bias_until_y else 0.0) + rng.normal(0.0, 0.5)
+        y += rng.normal(0.0, 0.5)
+        lon, lat = FRAME.to_lonlat(x, y)
+        out.append(dataclasses.replace(r, lon=float(lon), lat=float(lat)))
+    return out
+
+
+@pytest.mark.parametrize("hold_m", [200.0, 0.0], ids=["held", "off"])
+def test_a_bias_that_changes_on_a_platform_track_does_not_move_the_tram_across(bubble, hold_m):
+    # the tram starts on the bowed track (the bias puts it there), and the evidence moves
+    # to the straight one once the bias is gone
+    net = bubble
+    reports = _from_the_platform(bias_m=3.0, bias_until_y=350.0)
+    matched = match_reports(net, reports, config=PositioningConfig(same_way_hold_m=hold_m))
+    straight, bowed = _edge_at(net, 0.0, 360.0), _edge_at(net, 4.0, 360.0)
+    on = [m.edge_id for m in matched if m.matched]
+    assert bowed in on
+    across = straight in on[on.index(bowed) :]
+    _, broken = disconnected_windows(net, matched)
+    if hold_m:
+        # held on its track to the join, however far the evidence moved
+        assert not across and broken == 0
+        after = [m for m in matched if m.t > 60.0]
+        assert all(m.matched and m.edge_id not in (straight, bowed) for m in after)
+        assert all(m.position.status == "confident" for m in after)
+    else:
+        assert across and broken >= 1  # jumped across
