@@ -602,11 +602,7 @@ class Positioner:
             min_probability=c.min_probability,
             switch_probability=c.switch_probability,
             standing_switch_probability=c.standing_switch_probability,
-            same_way=lambda i, b, j: self._siblings.hold(
-                *(cs[b], co[b], cs[j], co[j]),
-                reported=[self._reported.get(reports[n].vehicle_id) for n in i.tolist()],
-                lineage_before=f.hs[rows[i], 0],
-            ),
+            same_way=self._siblings.asker(cs, co, reports, rows, f.hs, self._reported),
         )
         r = rows[m_group]
         done = rows[go]

@@ -54,7 +54,7 @@ False
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Final
 
 import numpy as np
@@ -174,6 +174,40 @@ class SameWaySiblings:
         for i in k[apart].tolist():
             out[i] = self._siblings(int(ls[i]), int(bs[i]))
         return out
+
+    def asker(
+        self,
+        states: IntArray,
+        offsets_m: FloatArray,
+        reports: Sequence[Any],
+        rows: IntArray,
+        slots: IntArray,
+        reported: Mapping[str, tuple[int, int]],
+    ) -> Callable[[IntArray, IntArray, IntArray], BoolArray]:
+        """The ``same_way`` test of :func:`~antikol.positioning.lineage.plan_slots` for one
+        batch of reports.
+
+        Parameters
+        ----------
+        states, offsets_m : ndarray
+            Per candidate: track state and offset on its edge, m.
+        reports : sequence of VehicleReport
+        rows : ndarray of int
+            Each report's vehicle row in ``slots``.
+        slots : ndarray of int, shape (vehicles, slots)
+            The vehicles' previous hypotheses' track states (slot 0: the lineage).
+        reported : mapping
+            The (edge, direction) each vehicle was last reported on, by vehicle id.
+        """
+
+        def same_way(report: IntArray, best: IntArray, lineage: IntArray) -> BoolArray:
+            return self.hold(
+                *(states[best], offsets_m[best], states[lineage], offsets_m[lineage]),
+                reported=[reported.get(reports[n].vehicle_id) for n in report.tolist()],
+                lineage_before=slots[rows[report], 0],
+            )
+
+        return same_way
 
     def _siblings(self, a: int, b: int) -> bool:
         key = (min(a, b), max(a, b))
