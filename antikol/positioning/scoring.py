@@ -10,9 +10,11 @@ over ground against the track heading — and the **transition** — the along-t
 between the states (:mod:`antikol.positioning.reach`) against the distance travelled, with
 the costs of entering wrong-way running and of reversing. At a standstill the fixes' white
 noise is itself correlated: the filter takes each such fix at ``standstill_evidence_weight``
-of its information (its noise variance divided by the weight), as the score does. A
-candidate no hypothesis can reach may still be taken at the small relocation prior (a track
-missing from the map). The result is read by
+of its information (its noise variance divided by the weight), as the score does; its
+hypotheses follow the fix along the track no farther than five standard deviations of the
+fix's error (a standing vehicle does not move: a fix whose places lie farther is an
+outlier, however little it weighs). A candidate no hypothesis can reach may still be
+taken at the small relocation prior (a track missing from the map). The result is read by
 :class:`~antikol.positioning.matcher.Positioner`, which keeps the best hypotheses; this
 module writes no state.
 """
@@ -47,6 +49,9 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 _NEG_INF = -math.inf
+#: A standing vehicle's hypotheses follow its fixes along the track no farther than this
+#: many standard deviations of a fix's error (white and bias together).
+_STANDING_SCATTER_SIGMAS = 5.0
 #: A hypothesis' place further than this from its fix's projection along the track has
 #: the course compared with the track heading there, m.
 PLACE_MOVE_M = 1.0
@@ -261,6 +266,18 @@ def score_fixes(
     if odo_pair.any():
         gate_beta = np.where(odo_pair, 0.3 * c.transition_beta_m + 0.02 * exp_m, beta)
         gate_cost = off_m / gate_beta
+    pcv = cv[pc]
+    still = standing[pcv]
+    if still.any():
+        # ... but a standing vehicle does not move: a place that only a move of more than
+        # five standard deviations of the fix's error (white and bias) reaches is none for
+        # it. After a long stop the fixes weigh next to nothing (below), and one that lands
+        # 30 m off would otherwise carry the hypotheses to the only places it offers (and
+        # be the next fix's reference for a jump)
+        scatter_m = _STANDING_SCATTER_SIGMAS * np.sqrt(noise_var[pc] + bias_sigma[pcv] ** 2)
+        far = still & ~rev_ok & (off_m > scatter_m)
+        if far.any():
+            gate_cost = np.where(far, np.inf, gate_cost)
     # at a standstill the candidates move with the fix's own error: their moves are
     # evidence of the fix (weighted as its emission), not of the vehicle
     trans = np.where(rev_ok, c.reversal_log_prior, 0.0) - move_cost * move_weight[cv[pc]]
@@ -272,8 +289,6 @@ def score_fixes(
     # gain from it either: each one hands on its probability, shared over the places its
     # fix offers, instead of giving it whole to each (a switch offers a place on every
     # branch, and a tram standing past it would drift to the side with more places)
-    pcv = cv[pc]
-    still = standing[pcv]
     if still.any():
         trans = _shared_out(trans, still, pcv * valid.shape[1] + pk, n * valid.shape[1])
 
