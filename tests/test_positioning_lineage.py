@@ -8,7 +8,7 @@ import pytest
 from antikol.positioning.lineage import plan_slots
 
 
-def _plan_one(p: list[float], parent: list[int], *, standing: bool):
+def _plan_one(p: list[float], parent: list[int], *, standing: bool, same_way=None):
     """The slot plan of one report whose candidates, ranked by probability, have the
     probabilities ``p`` and descend from the previous slots ``parent``."""
     return plan_slots(
@@ -23,6 +23,7 @@ def _plan_one(p: list[float], parent: list[int], *, standing: bool):
         min_probability=1e-4,
         switch_probability=0.75,
         standing_switch_probability=0.95,
+        same_way=same_way,
     )
 
 
@@ -68,3 +69,32 @@ def test_a_lineage_split_over_branches_counts_as_all_its_branches():
     assert plan([0.2, 0.15]).chosen[0] == 1  # together above 0.25: the lineage is kept
     assert plan([0.2, 0.15]).slot[0] == 1
     assert plan([0.1, 0.1]).chosen[0] == 0  # together still below: the best is followed
+
+
+def _beside(p_best: float, p_lineage: float, *, beside: bool | None):
+    """The plan when the best (from slot 1) and the lineage's candidate lie on tracks beside
+    each other that meet again (``beside``; None: no such test), and the test's calls."""
+    calls: list[tuple[list[int], list[int]]] = []
+
+    def same_way(report, best, lineage):
+        assert report.tolist() == [0]
+        calls.append((best.tolist(), lineage.tolist()))
+        return np.full(len(best), bool(beside))
+
+    plan = _plan_one(
+        [p_best, p_lineage], [1, 0], standing=False, same_way=None if beside is None else same_way
+    )
+    return plan, calls
+
+
+def test_a_lineage_beside_the_best_is_held_however_little_is_left():
+    # (antikol.positioning.siblings decides which tracks lie beside each other)
+    for p_lineage in (0.1, 1e-6):
+        plan, calls = _beside(1.0 - p_lineage, p_lineage, beside=True)
+        assert plan.chosen.tolist() == [1] and calls == [([0], [1])]
+        # held below min_probability, it keeps its slot 0 and the best its slot 1
+        assert dict(zip(plan.candidate.tolist(), plan.slot.tolist(), strict=True)) == {1: 0, 0: 1}
+        assert _beside(1.0 - p_lineage, p_lineage, beside=False)[0].chosen.tolist() == [0]
+        assert _beside(1.0 - p_lineage, p_lineage, beside=None)[0].chosen.tolist() == [0]
+    # asked only where the lineage would be left
+    assert _beside(0.6, 0.4, beside=True)[1] == []

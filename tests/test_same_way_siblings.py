@@ -20,7 +20,6 @@ from hypothesis import strategies as st
 import trackmap
 from antikol.evaluation.consistency import disconnected_windows, match_reports
 from antikol.positioning import PositioningConfig
-from antikol.positioning.lineage import plan_slots
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.siblings import SameWaySiblings
 from tests._osm import FRAME, OsmBuilder
@@ -118,43 +117,6 @@ def test_the_sibling_relation_is_symmetric_and_local(bubble, y_a, y_b):
         assert not one[0]  # one track: a move, not a jump
     elif abs(y_a - y_b) > 10.0:
         assert not one[0]  # not side by side
-
-
-def _plan(p_best: float, p_lineage: float, *, beside: bool | None):
-    calls: list[tuple[list[int], list[int]]] = []
-
-    def same_way(report, best, lineage):
-        assert report.tolist() == [0]
-        calls.append((best.tolist(), lineage.tolist()))
-        return np.full(len(best), bool(beside))
-
-    plan = plan_slots(
-        np.arange(2),
-        np.array([0, 2]),
-        np.array([p_best, p_lineage]),
-        np.array([1, 0]),  # the best descends from slot 1, the second from the lineage
-        np.array([0]),
-        fresh=np.array([False]),
-        standing=np.array([False]),
-        k=4,
-        min_probability=1e-4,
-        switch_probability=0.75,
-        standing_switch_probability=0.95,
-        same_way=None if beside is None else same_way,
-    )
-    return plan, calls
-
-
-def test_a_lineage_beside_the_best_is_held_however_little_is_left():
-    for p_lineage in (0.1, 1e-6):
-        plan, calls = _plan(1.0 - p_lineage, p_lineage, beside=True)
-        assert plan.chosen.tolist() == [1] and calls == [([0], [1])]
-        # held below min_probability, it keeps its slot 0 and the best its slot 1
-        assert dict(zip(plan.candidate.tolist(), plan.slot.tolist(), strict=True)) == {1: 0, 0: 1}
-        assert _plan(1.0 - p_lineage, p_lineage, beside=False)[0].chosen.tolist() == [0]
-        assert _plan(1.0 - p_lineage, p_lineage, beside=None)[0].chosen.tolist() == [0]
-    # asked only where the lineage would be left
-    assert _plan(0.6, 0.4, beside=True)[1] == []
 
 
 def _from_the_platform(*, bias_m: float, bias_until_y: float) -> list:

@@ -183,9 +183,9 @@ class SameWaySiblings:
         rows: IntArray,
         slots: IntArray,
         reported: Mapping[str, tuple[int, int]],
-    ) -> Callable[[IntArray, IntArray, IntArray], BoolArray]:
+    ) -> Callable[[IntArray, IntArray, IntArray], BoolArray] | None:
         """The ``same_way`` test of :func:`~antikol.positioning.lineage.plan_slots` for one
-        batch of reports.
+        batch of reports (None while the hold is off).
 
         Parameters
         ----------
@@ -199,6 +199,8 @@ class SameWaySiblings:
         reported : mapping
             The (edge, direction) each vehicle was last reported on, by vehicle id.
         """
+        if self.meet_within_m <= 0.0:
+            return None
 
         def same_way(report: IntArray, best: IntArray, lineage: IntArray) -> BoolArray:
             return self.hold(
