@@ -269,7 +269,7 @@ def score_fixes(
     pcv = cv[pc]
     still = standing[pcv]
     if still.any():
-        # ... but a standing vehicle does not move: a place that only a move of more than
+        # a standing vehicle does not move: a place that only a move of more than
         # five standard deviations of the fix's error (white and bias) reaches is none for
         # it. After a long stop the fixes weigh next to nothing (below), and one that lands
         # 30 m off would otherwise carry the hypotheses to the only places it offers (and
