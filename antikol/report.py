@@ -15,6 +15,7 @@ from antikol.kinds import BRAKE_STATES, BrakeState
 from antikol.numeric import finite_float, why_not_finite
 
 __all__ = [
+    "ESTIMATED_FIX_QUALITY",
     "MAX_ROUTE_EDGES",
     "MAX_SPEED_MPS",
     "MAX_VEHICLE_ID_BYTES",
@@ -28,6 +29,8 @@ MAX_SPEED_MPS = 100.0
 MAX_VEHICLE_ID_BYTES = 32
 #: Longest planned route carried in a report (number of track edges).
 MAX_ROUTE_EDGES = 255
+#: GGA fix quality of a position estimated without a fix (dead reckoning).
+ESTIMATED_FIX_QUALITY = 6
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,7 +99,9 @@ class VehicleReport:
         GGA fix quality indicator (0 invalid, 1 GPS, 2 DGPS, 4 RTK fixed, ...). ``0`` means
         the report carries no position fix: ``lat``/``lon`` are the last known position
         and are not used as a measurement (a tunnel); with ``odometer_m`` the vehicle is
-        dead-reckoned along the track.
+        dead-reckoned along the track. ``6`` (:data:`ESTIMATED_FIX_QUALITY`) is a position
+        the sender estimated without a fix: dead-reckoned the same way, its position only
+        weighs the branches (:mod:`antikol.positioning.estimates`).
     odometer_m : float, optional
         Distance the vehicle has travelled, m, from any origin (its odometer or the
         operator feed's travelled distance). Positioning uses its increments as the

@@ -181,6 +181,44 @@ def test_a_feed_without_a_fix_quality_field_repeats_the_last_position_unflagged(
     assert len(repeats) >= sum(r.fix_quality == 0 for r in flagged) > 0
 
 
+def test_estimates_without_a_fix_follow_the_route_or_run_straight_on(street):
+    """Reports without a fix carry the sender's estimate (``fix_quality`` 6) when asked:
+    the last fix moved by the tram's true motion, or on along the last fix's heading."""
+    spec = TramSpec("E", _north_route(street), stops=(), max_speed_mps=10.0)
+    flagged = Simulator(street, [spec], gps=GpsModel.urban(), seed=2).run(560.0)
+    plain = flagged.reports
+    for option in ("estimates_along_route", "estimates_extrapolated"):
+        gps = GpsModel.urban(**{option: True})
+        result = Simulator(street, [spec], gps=gps, seed=2).run(560.0)
+        # the same epochs, fixes and errors; only the reports without a fix differ
+        assert [r.t for r in result.reports] == [r.t for r in plain]
+        log = result.fixes["E"]
+        last_fix = None
+        moved = 0
+        for r, before in zip(result.reports, plain, strict=True):
+            k = int(np.searchsorted(log.t_s, r.t))
+            if before.fix_quality == 1:
+                assert r == before
+                last_fix = k
+                continue
+            assert before.fix_quality == 0 and r.fix_quality == 6
+            x, y = street.to_local(r.lon, r.lat)
+            ran = math.hypot(log.true_x_m[k] - log.true_x_m[last_fix],
+                             log.true_y_m[k] - log.true_y_m[last_fix])  # fmt: skip
+            moved += ran > 1.0
+            error = (x - log.true_x_m[k], y - log.true_y_m[k])
+            fix_error = (log.x_m[last_fix] - log.true_x_m[last_fix],
+                         log.y_m[last_fix] - log.true_y_m[last_fix])  # fmt: skip
+            if option == "estimates_along_route":  # the last fix's error, carried on
+                assert np.allclose(error, fix_error, atol=1e-6)
+            else:  # on along the last heading at the last speed (the line runs north)
+                expected = log.speed_mps[last_fix] * (r.t - log.t_s[last_fix])
+                assert y - log.y_m[last_fix] == pytest.approx(expected, abs=0.05 * expected + 0.5)
+        assert moved > 10
+    with pytest.raises(ValueError, match="exclude"):
+        UrbanGpsModel(estimates_along_route=True, estimates_extrapolated=True)
+
+
 def test_bad_urban_parameters_are_rejected():
     with pytest.raises(ValueError, match="tail_dof"):
         UrbanGpsModel(tail_dof=2.0)

@@ -50,6 +50,7 @@ import numpy as np
 
 from antikol.evaluation.replay import cycles
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
 from antikol.report import VehicleReport
@@ -140,8 +141,9 @@ class MatchedFix:
 
     @property
     def has_fix(self) -> bool:
-        """The report carries a position fix (``fix_quality`` is not 0)."""
-        return self.report.fix_quality != 0
+        """The report carries a position fix (``fix_quality`` neither 0 nor 6, an
+        estimate)."""
+        return self.report.fix_quality not in NOT_MEASURED
 
 
 def match_reports(

@@ -36,6 +36,7 @@ import shapely
 
 from antikol.evaluation.consistency import MOVING_MPS, disconnected_windows
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
 from antikol.sim import Route, SimulationResult
@@ -381,11 +382,11 @@ def _had_fix(result: SimulationResult, r: Any) -> bool:
     by the report's flag where there is no log of its vehicle)."""
     log = result.fixes.get(r.vehicle_id)
     if log is None or not len(log.t_s):
-        return bool(r.fix_quality != 0)
+        return r.fix_quality not in NOT_MEASURED
     k = int(np.searchsorted(log.t_s, r.t))
     if k < len(log.t_s) and log.t_s[k] == r.t:
         return bool(log.available[k])
-    return bool(r.fix_quality != 0)
+    return r.fix_quality not in NOT_MEASURED
 
 
 def _antenna_before_route(result: SimulationResult, spec: Any, t: float) -> bool:

@@ -7,7 +7,8 @@ record at a time and
 
 * derives a missing speed and course over ground from the vehicle's previous position
   (WGS84 geodesic through pyproj), or from its odometer for the speed;
-* keeps the last known position for records without a position fix (``fix_quality`` 0);
+* keeps the last known position for records without a position fix (``fix_quality`` 0),
+  and passes a position the vehicle estimated itself as one (``fix_quality`` 6);
 * passes an odometer reading that goes back on, noted: many feeds count the distance from
   the start of the trip, back to zero at every new trip, and the positioner takes such a
   step on the speeds (:mod:`antikol.positioning.feedfaults`); dropping the reading would
@@ -36,7 +37,7 @@ from pyproj import Geod
 from antikol.errors import InvalidArgumentError, InvalidReportError, ReplayError
 from antikol.ingest.nmea_spec import KMH_PER_MPS, KNOT_MPS
 from antikol.ingest.replaylog import ReplayLog, RowProblem
-from antikol.report import VehicleReport
+from antikol.report import ESTIMATED_FIX_QUALITY, VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS
 
 __all__ = ["SPEED_UNITS", "FeedCollector", "FeedRecord", "speed_unit_factor"]
@@ -96,6 +97,10 @@ class FeedRecord:
         otherwise), degrees, m.
     has_fix : bool
         The position is a GPS fix (False: odometer, dead reckoning, manual or unknown).
+    estimated : bool
+        Without a fix, the position is an estimate of the vehicle's own (moved along its
+        route by the odometer, dead reckoning): the report's ``fix_quality`` is 6, whose
+        position weighs the branches (:mod:`antikol.positioning.estimates`), not 0.
     """
 
     record: int
@@ -108,6 +113,7 @@ class FeedRecord:
     course_deg: float | None
     odometer_m: float | None
     has_fix: bool = True
+    estimated: bool = False
 
 
 class _Fix(NamedTuple):
@@ -249,6 +255,7 @@ class FeedCollector:
             self._last[rec.vehicle_id] = start.followed_by(rec.t, lat, lon, fix, course, keep_odo)
             return
         known_course = course
+        quality = 1 if fix else (ESTIMATED_FIX_QUALITY if has_pos and rec.estimated else 0)
         if course is None:  # standing: no course is used below COURSE_MIN_SPEED_MPS
             course = 0.0
         try:
@@ -259,7 +266,7 @@ class FeedCollector:
                 lon=lon,
                 speed_mps=speed,
                 course_deg=course % 360.0 if math.isfinite(course) else course,
-                fix_quality=1 if fix else 0,
+                fix_quality=quality,
                 odometer_m=odometer,
             )
         except InvalidReportError as exc:

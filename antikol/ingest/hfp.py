@@ -15,8 +15,10 @@ vehicle position. The fields used here (HFP v2):
 ``spd``    speed, m/s (null: derived from the previous record)
 ``hdg``    heading, degrees from north (null: derived, or the last one kept)
 ``odo``    odometer, metres — the report's ``odometer_m``
-``loc``    location source: ``GPS`` is a fix; ``ODO``, ``DR``, ``MAN`` and
-           ``N/A`` are not (``fix_quality`` 0, the position is not a measurement)
+``loc``    location source: ``GPS`` is a fix; ``ODO`` and ``DR`` are the
+           vehicle's own estimates (``fix_quality`` 6: dead-reckoned, the position
+           weighs the branches); ``MAN`` and ``N/A`` are no position (``fix_quality``
+           0, the last known one is kept)
 =========  ===================================================================
 
 **Vehicle identity.** ``oper`` is the operator *running the trip*, which differs from
@@ -79,6 +81,7 @@ __all__ = [
 #: The HFP event type of vehicle positions.
 HFP_EVENT: Final = "VP"
 _NO_FIX_SOURCES: Final = frozenset({"ODO", "DR", "MAN", "N/A", "NA"})
+_ESTIMATE_SOURCES: Final = frozenset({"ODO", "DR"})
 
 
 class HfpRecordError(ValueError):
@@ -188,7 +191,7 @@ def hfp_fields(
         A required field is missing or not a number, or the time is unreadable.
     """
     loc = fields.get("loc")
-    has_fix = not (isinstance(loc, str) and loc.strip().upper() in _NO_FIX_SOURCES)
+    source_kind = loc.strip().upper() if isinstance(loc, str) else "GPS"
     return FeedRecord(
         record=record,
         source=source,
@@ -201,7 +204,8 @@ def hfp_fields(
         speed_mps=_number(fields, "spd", required=False),
         course_deg=_number(fields, "hdg", required=False),
         odometer_m=_number(fields, "odo", required=False),
-        has_fix=has_fix,
+        has_fix=source_kind not in _NO_FIX_SOURCES,
+        estimated=source_kind in _ESTIMATE_SOURCES,
     )
 
 

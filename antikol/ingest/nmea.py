@@ -9,7 +9,8 @@ Sentences
 ---------
 ``RMC``
     Time, date, fix status, position, speed over ground (knots), course over ground. One
-    report is produced per RMC *epoch* (one UTC time of day).
+    report is produced per RMC *epoch* (one UTC time of day). Mode indicator ``E`` (the
+    receiver's dead reckoning) gives ``fix_quality`` 6 where no GGA says otherwise.
 ``GGA``
     Fix quality and HDOP of the epoch with the same UTC time; they enrich the report
     (``fix_quality``, ``hdop``). The position of the report is always RMC's.
@@ -128,7 +129,7 @@ from antikol.ingest.nmea_spec import (
     UNIX_EPOCH,
 )
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
-from antikol.report import VehicleReport
+from antikol.report import ESTIMATED_FIX_QUALITY, VehicleReport
 from antikol.thresholds import STANDING_SPEED_MPS
 
 # GNSS_TALKERS, KMH_PER_MPS and KNOT_MPS (nmea_spec) and the format_* writers (nmea_writer)
@@ -238,6 +239,7 @@ class _Rmc:
     lon: float
     speed_mps: float | None
     course_deg: float | None
+    estimated: bool = False  # mode indicator E: the receiver's dead reckoning
 
 
 @dataclass(slots=True)
@@ -472,7 +474,7 @@ class NmeaReader:
             return
         if epoch.rmc is not None:
             raise SkipSentence("duplicate", "second RMC of the epoch")
-        epoch.rmc = _Rmc(t, lat, lon, speed, course)
+        epoch.rmc = _Rmc(t, lat, lon, speed, course, estimated=mode == "E")
         epoch.held += 1
         self._close_if_complete(out)
 
@@ -606,7 +608,9 @@ class NmeaReader:
                 length_m=self.length_m,
                 antenna_offset_m=self.antenna_offset_m,
                 hdop=epoch.hdop,
-                fix_quality=epoch.fix_quality,
+                fix_quality=epoch.fix_quality
+                if epoch.fix_quality is not None or not rmc.estimated
+                else ESTIMATED_FIX_QUALITY,
             )
         except InvalidReportError as err:
             raise SkipSentence("invalid_value", str(err)) from err

@@ -164,6 +164,12 @@ class PositioningConfig:
         fixes stopped at a switch before a tunnel's portal is found in the tunnel, not on
         the surface track beside it (:mod:`antikol.positioning.outages`); 0 takes an
         outage as no evidence.
+    estimated_fix_sigma_m : float
+        Standard deviation of a position estimated without a fix (``fix_quality`` 6: a
+        receiver's dead reckoning, a feed's position moved along the route by the
+        odometer), m: such a report is dead-reckoned like one without a fix, and its
+        position then weighs the hypotheses with this spread and ``outlier_weight``
+        (:mod:`antikol.positioning.estimates`); 0 ignores the position.
     lost_sigma_m : float
         Along-track uncertainty at which a dead-reckoned position is lost, m.
     reset_gap_s : float
@@ -252,6 +258,7 @@ class PositioningConfig:
     speed_distance_sigma_fraction: float = 0.03
     odometer_dead_reckoning_m: float = 2000.0
     surface_outage_s: float = 5.0
+    estimated_fix_sigma_m: float = 10.0
     lost_sigma_m: float = 60.0
     reset_gap_s: float = 30.0
     accel_sigma_mps2: float = 0.6

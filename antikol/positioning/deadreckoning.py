@@ -19,6 +19,11 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.estimates import (
+    ESTIMATED_FIX_QUALITY,
+    distances_to_estimate,
+    weigh_estimate,
+)
 from antikol.positioning.fleet import SLOT_FIELDS, FleetState
 from antikol.positioning.kalman import track_distance_step
 from antikol.positioning.outages import weigh_outage
@@ -108,6 +113,20 @@ def dead_reckon(
     ):
         stats["outage_lineage_switch"] += 1
         fleet.confident_run[row] = 0  # the reported place's run starts again
+    if report.fix_quality == ESTIMATED_FIX_QUALITY and config.estimated_fix_sigma_m > 0.0:
+        stats["estimated_position"] += 1
+        if weigh_estimate(
+            fleet,
+            row,
+            distances_to_estimate(net, fleet, row, report.lon, report.lat),
+            sigma_m=config.estimated_fix_sigma_m,
+            outlier_weight=config.outlier_weight,
+            switch_probability=config.switch_probability,
+            most_probability=0.5 * (config.switch_probability + config.confidence),
+            floor=10.0 * config.min_probability,
+        ):
+            stats["estimate_lineage_switch"] += 1
+            fleet.confident_run[row] = 0
     fleet.z[row] += travelled
     standing = travelled < config.standstill_distance_m and math.isfinite(dt)
     fleet.stood[row] = fleet.stood[row] + dt if standing else 0.0

@@ -16,6 +16,7 @@ import numpy.typing as npt
 
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.kalman import TrackFilterState
+from antikol.positioning.reach import state_edge
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -32,7 +33,7 @@ IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 
 #: Per-hypothesis arrays of the fleet state (rows: vehicles, columns: hypothesis slots).
-SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", *FIX_ERROR_FIELDS)
+SLOT_FIELDS = ("ho", "hp", "hg", "hw", "hv", "he", *FIX_ERROR_FIELDS)
 #: Per-vehicle float arrays of the fleet state.
 VEHICLE_FIELDS = (
     "t", "x", "y", "v", "odo", "odo_fix", "t_fix", "z",
@@ -71,7 +72,9 @@ class FleetState:
     k: int
     # per hypothesis (vehicles x k): state id, offset on the edge (m), log-probability,
     # progress along its history (m), time running wrong way (s), the state id it entered
-    # its own from (as a float; -1: not known), and the fix error filter
+    # its own from (as a float; -1: not known), the log-likelihood of the latest position
+    # estimate in it since the last fix (:mod:`antikol.positioning.estimates`), and the
+    # fix error filter
     # (:mod:`antikol.positioning.fixerror`): along-track lag, GPS bias east and north (m)
     # and their covariance (m²)
     hs: IntArray = field(init=False)
@@ -80,6 +83,7 @@ class FleetState:
     hg: FloatArray = field(init=False)
     hw: FloatArray = field(init=False)
     hv: FloatArray = field(init=False)
+    he: FloatArray = field(init=False)
     ad: FloatArray = field(init=False)
     bx: FloatArray = field(init=False)
     by: FloatArray = field(init=False)
@@ -275,6 +279,37 @@ class FleetState:
         """The vehicles of ``rows`` have a new fix: their run since it starts at zero."""
         self.run_nofix[rows] = 0.0
         self.t_nofix[rows] = self.v_nofix[rows] = np.nan
+
+    def lead_to_heaviest_place(
+        self, row: int, *, switch_probability: float, eligible_edges: BoolArray | None = None
+    ) -> bool:
+        """Move a vehicle's lineage (slot 0) to the place (track state) that holds the most
+        of its probability, when that place is another one, holds at least
+        ``switch_probability`` and lies on an edge that may lead (``eligible_edges``, per
+        edge id of the map; default: every edge).
+
+        Returns
+        -------
+        bool
+            Whether the lineage moved (onto the most probable hypothesis at that place).
+        """
+        slots = np.flatnonzero(self.hs[row] >= 0)
+        states, log_p = self.hs[row, slots], self.hp[row, slots]
+        unique, where = np.unique(states, return_inverse=True)
+        mass = np.bincount(where, weights=np.exp(log_p), minlength=len(unique))
+        best = int(np.argmax(mass))
+        if (
+            unique[best] == states[0]
+            or (eligible_edges is not None and not eligible_edges[state_edge(unique[best])])
+            or mass[best] < switch_probability
+        ):
+            return False
+        on_best = np.flatnonzero(where == best)
+        lead = int(slots[on_best[np.argmax(log_p[on_best])]])
+        for name in ("hs", *SLOT_FIELDS):
+            column = getattr(self, name)[row]
+            column[[0, lead]] = column[[lead, 0]]
+        return True
 
     def row_state(self, row: int) -> dict[str, Any]:
         """One vehicle's row as a JSON-ready dict (see ``Positioner.state``)."""

@@ -22,14 +22,14 @@ reported position follows one **lineage**: it moves to a hypothesis that does no
 from the previous one only when that hypothesis is decisive (``switch_probability``), so
 successive positions are connected by the track (:mod:`antikol.positioning.lineage`; a
 standing vehicle keeps its lineage, however little is left of it, until another hypothesis
-reaches ``standing_switch_probability``). A hypothesis
-remembers the track it entered its own from: a step back (the fixes of a standing vehicle
-scatter round it) crosses a trailing switch only onto that track
-(:meth:`~antikol.positioning.reach.ReachTable.signed_distance`). An along-track Kalman
-filter fuses the lineage's travelled distance with the reported speed (or the odometer);
-during a GPS outage it dead-reckons along the most probable path until its uncertainty,
-the outage length or the distance run on the odometer passes a limit, when the position is
-declared ``lost``.
+reaches ``standing_switch_probability``). A hypothesis remembers the track it entered its
+own from: a step back (the fixes of a standing vehicle scatter round it) crosses a trailing
+switch only onto that track (:meth:`~antikol.positioning.reach.ReachTable.signed_distance`).
+An along-track Kalman filter fuses the lineage's travelled distance with the reported speed
+(or the odometer); during a GPS outage it dead-reckons along the most probable path (a
+position estimated without a fix weighs the branches, :mod:`~antikol.positioning.estimates`)
+until its uncertainty, the outage length or the distance run on the odometer passes a
+limit, when the position is declared ``lost``.
 
 Everything per report is vectorised over the fleet: :meth:`Positioner.update_many` handles
 one cycle of a whole city in a few array operations.
@@ -62,6 +62,7 @@ from antikol.positioning.branching import Arrivals
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
+from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.feedfaults import stale_fixes, unusable_odometers
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
@@ -387,7 +388,7 @@ class Positioner:
             (math.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
         )
         odo = corrected_odometers(self._f, rows, odo)
-        no_fix = np.fromiter((r.fix_quality == 0 for r in reports), bool, n)
+        no_fix = np.fromiter((r.fix_quality in NOT_MEASURED for r in reports), bool, n)
         # faults of the feed: a reset odometer leaves no baseline (this step runs on the
         # speeds), a repeated position while the vehicle runs on is no fix
         f = self._f
@@ -627,6 +628,7 @@ class Positioner:
         if rebased is not None:
             f.hg[done[rebased], 0] = progress[rebased]
         f.hw[r, col] = ww[m_idx]
+        f.he[r, col] = 0.0  # (a fix: the estimates' evidence so far stays as it is)
         f.hv[r, col] = came[m_idx]
         for name, values in zip(FIX_ERROR_FIELDS, error_cols, strict=True):
             getattr(f, name)[r, col] = values[m_idx]
@@ -650,16 +652,9 @@ class Positioner:
         self.stats["matched"] += len(go)
 
     def _set_fixes(
-        self,
-        which: IntArray,
-        reports: list[VehicleReport],
-        rows: IntArray,
-        t: FloatArray,
-        speed: FloatArray,
-        odo: FloatArray,
-        xs: FloatArray,
-        ys: FloatArray,
-    ) -> None:
+        self, which: IntArray, reports: list[VehicleReport], rows: IntArray, t: FloatArray,
+        speed: FloatArray, odo: FloatArray, xs: FloatArray, ys: FloatArray,
+    ) -> None:  # fmt: skip
         """Remember the fixes ``which`` as the vehicles' latest."""
         f = self._f
         r = rows[which]
@@ -752,7 +747,7 @@ class Positioner:
         self._f.ho[row, 0] = offset
         self._f.hp[row, 0] = 0.0
         self._f.hg[row, 0] = s
-        self._f.hw[row, 0] = 0.0
+        self._f.hw[row, 0] = self._f.he[row, 0] = 0.0
         self._f.hv[row] = -1.0
         kf = self._f.kf
         kf.t[row], kf.s[row], kf.v[row] = t, s, v

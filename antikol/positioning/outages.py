@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from antikol.positioning.fleet import SLOT_FIELDS, FleetState
+from antikol.positioning.fleet import FleetState
 
 __all__ = ["outage_log_likelihood", "weigh_outage"]
 
@@ -115,20 +115,8 @@ def weigh_outage(
     log_p = np.where(covered, log_p, np.maximum(log_p, np.minimum(before, np.log(floor))))
     log_p -= np.logaddexp.reduce(log_p)
     fleet.hp[row, slots] = log_p
-    # the place (track state) holding the most; the lineage moves there only when it is in
-    # a tunnel (what the outage speaks for) and holds the switch probability
-    unique, where = np.unique(states, return_inverse=True)
-    mass = np.bincount(where, weights=np.exp(log_p), minlength=len(unique))
-    best = int(np.argmax(mass))
-    if (
-        unique[best] == states[0]
-        or not tunnel_edges[unique[best] >> 1]
-        or mass[best] < switch_probability
-    ):
-        return False
-    on_best = np.flatnonzero(where == best)
-    lead = int(slots[on_best[np.argmax(log_p[on_best])]])
-    for name in ("hs", *SLOT_FIELDS):
-        column = getattr(fleet, name)[row]
-        column[[0, lead]] = column[[lead, 0]]
-    return True
+    # the lineage moves to the place holding the most only when it is in a tunnel (what the
+    # outage speaks for) and holds the switch probability
+    return fleet.lead_to_heaviest_place(
+        row, switch_probability=switch_probability, eligible_edges=tunnel_edges
+    )

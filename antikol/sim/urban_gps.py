@@ -105,6 +105,13 @@ class UrbanGpsModel:
     operator's feed, GTFS-realtime) no report carries a fix quality: those without a fix
     repeat the last position unflagged.
 
+    A report without a fix may carry a position the sender estimated instead
+    (``fix_quality = 6``): with ``estimates_along_route`` the last fix moved on by the
+    tram's true motion since (a vehicle computer that moves its position along the route by
+    the odometer, HSL's ``loc`` ``ODO``); with ``estimates_extrapolated`` the last fix
+    moved on at the last fix's speed along its heading (a receiver's dead reckoning without
+    wheel input: off the track in curves and at diverging switches).
+
     Attributes
     ----------
     sigma_m, tail_dof, bias_open_m, bias_canyon_lateral_m, bias_canyon_along_m, bias_tau_s,
@@ -112,7 +119,7 @@ class UrbanGpsModel:
     dropout_mean_s, missing_rate, tunnel_dropout, tunnel_reacquire_s, rate_hz,
     speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, course_held_at_start, odometer,
     odometer_scale_sigma, odometer_resolution_m, report_without_fix, fix_quality_field,
-    latency_s
+    latency_s, estimates_along_route, estimates_extrapolated
         As above (metres, seconds, Hz, probabilities, m/s, degrees).
     canyon_open, canyon_double_track : float
         Canyon factor of track without and with a parallel opposite-direction track.
@@ -148,6 +155,8 @@ class UrbanGpsModel:
     report_without_fix: bool = True
     fix_quality_field: bool = True
     latency_s: float = 0.0
+    estimates_along_route: bool = False
+    estimates_extrapolated: bool = False
     canyon_open: float = 0.2
     canyon_double_track: float = 0.8
     canyon_spread: float = 0.4
@@ -180,6 +189,10 @@ class UrbanGpsModel:
             isinstance(self.tail_dof, int | float) and 2.0 < self.tail_dof < math.inf
         ):
             raise ValueError(f"UrbanGpsModel.tail_dof must be > 2 or None, got {self.tail_dof!r}")
+        if self.estimates_along_route and self.estimates_extrapolated:
+            raise ValueError(
+                "UrbanGpsModel: estimates_along_route and estimates_extrapolated exclude each other"
+            )
         if isinstance(self.canyon_seed, bool) or not isinstance(self.canyon_seed, int):
             raise ValueError(f"UrbanGpsModel.canyon_seed must be an int, got {self.canyon_seed!r}")
 
@@ -364,7 +377,14 @@ def observe_urban(
             rx[m], ry[m] = mx[last], my[last]
             rcourse[m] = course[last]
             rspeed[m] = min(float(wheel[m]), 99.0)
-            quality[m] = 0
+            if gps.estimates_along_route:
+                rx[m] += ep.x_m[m] - ep.x_m[last]
+                ry[m] += ep.y_m[m] - ep.y_m[last]
+            elif gps.estimates_extrapolated:
+                run = float(speed[last]) * float(tf[m] - tf[last])
+                rx[m] += run * math.sin(th[last])
+                ry[m] += run * math.cos(th[last])
+            quality[m] = 6 if gps.estimates_along_route or gps.estimates_extrapolated else 0
     idx = np.flatnonzero(available | no_fix)
     reports = make_reports(
         spec,
