@@ -196,6 +196,51 @@ def test_estimate_likelihood_is_bounded_and_falls_with_distance(distances, sigma
     assert np.all(np.diff(ll) <= 1e-12)
 
 
+@settings(max_examples=25, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from([0, 1, ESTIMATED_FIX_QUALITY]),
+            st.floats(-200.0, 200.0),  # the estimate's offset east of the truth, m
+            st.floats(-200.0, 200.0),  # and north
+            st.floats(0.0, 12.0),  # speed, m/s
+        ),
+        min_size=5,
+        max_size=40,
+    )
+)
+def test_any_mix_of_fixes_and_estimates_keeps_a_sound_state(junction, steps):
+    """Whatever the estimates say, and however they mix with fixes and outages, the
+    positioner keeps probabilities that sum to one, reports a place on the map, and no
+    estimate is ever refused like a fix or makes a place confident on its own."""
+    net = junction[0]
+    path = [*TRUNK, *TURNOUT[1:]]
+    truth = _drive(path, len(steps), blind_after_y=math.inf)
+    pos = Positioner(net)
+    sure_from_fix = False
+    for r, (quality, dx, dy, speed) in zip(truth, steps, strict=True):
+        if quality == 1:
+            report = dataclasses.replace(r, speed_mps=speed)
+        else:
+            x, y = (float(v) for v in FRAME.to_local(r.lon, r.lat))
+            lon, lat = FRAME.to_lonlat(x + dx, y + dy)
+            report = dataclasses.replace(
+                r, lat=float(lat), lon=float(lon), speed_mps=speed, fix_quality=quality
+            )
+        p = pos.update(report)
+        if p is None or p.edge_id is None:  # (no fix yet, or lost: no place to check)
+            assert p is None or p.status in ("unmatched", "lost")
+            continue
+        assert p.edge_id in range(len(net.edges))
+        total = sum(h.probability for h in p.hypotheses)
+        assert math.isclose(total, 1.0, abs_tol=1e-3)  # (the listed ones: the least are cut)
+        if quality == 1:
+            sure_from_fix = p.probability >= PositioningConfig().confidence
+        elif quality == ESTIMATED_FIX_QUALITY and not sure_from_fix and len(p.hypotheses) > 1:
+            assert p.status != "confident"
+    assert pos.stats["estimated_position"] <= sum(q == ESTIMATED_FIX_QUALITY for q, *_ in steps)
+
+
 def _fleet(probabilities):
     fleet = FleetState(k=4)
     fleet.grow(1)
