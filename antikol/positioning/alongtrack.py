@@ -23,8 +23,9 @@ import numpy.typing as npt
 
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.fleet import FleetState
-from antikol.positioning.kalman import track_odometer_step, track_predict, track_update
+from antikol.positioning.kalman import track_distance_step, track_predict, track_update
 from antikol.positioning.latency import learn_latency
+from antikol.positioning.odometerresolution import odometer_resolution, quantisation_sigma
 from antikol.positioning.odometerscale import learn_odometer_scale
 
 __all__ = ["run_track_filters"]
@@ -101,7 +102,11 @@ def run_track_filters(
     gps = ~reset & ~wheels
     if wheels.any():
         step = np.maximum(odo[wheels] - odo_prev[wheels], 0.0)
-        track_odometer_step(kf, done[wheels], t[wheels], step, c.odometer_sigma_fraction)
+        quant = quantisation_sigma(
+            odometer_resolution(fleet, done[wheels]), step_sigma_m=c.odometer_step_sigma_m
+        )
+        sigma = c.odometer_sigma_fraction * step + 0.05 + quant  # (track_odometer_step's)
+        track_distance_step(kf, done[wheels], t[wheels], step, sigma)
     if gps.any():
         track_predict(kf, done[gps], t[gps], c.accel_sigma_mps2)
     predicted = [a[done].copy() for a in (kf.s, kf.v, kf.pss, kf.psv, kf.pvv)]

@@ -26,6 +26,7 @@ from antikol.positioning.estimates import (
 )
 from antikol.positioning.fleet import SLOT_FIELDS, FleetState
 from antikol.positioning.kalman import track_distance_step
+from antikol.positioning.odometerresolution import odometer_resolution, quantisation_sigma
 from antikol.positioning.outages import weigh_outage
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import Hypothesis
@@ -84,6 +85,8 @@ def dead_reckon(
         travelled = max(odometer - fleet.odo[row], 0.0)
         stats["odometer_dead_reckoning"] += 1
         sigma_m = config.odometer_sigma_fraction * travelled + 0.05
+        coarse = odometer_resolution(fleet, np.array([row]))
+        sigma_m += float(quantisation_sigma(coarse, step_sigma_m=config.odometer_step_sigma_m)[0])
         # the odometer's scale error is the tram's own, not fresh at every step: the
         # lag's uncertainty grows with the whole distance run since the last fix
         since_fix = fleet.odo[row] - fleet.odo_fix[row]

@@ -53,6 +53,11 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.positioning.fleet import FleetState, RunSinceFix
+from antikol.positioning.odometerresolution import (
+    glitch_margin,
+    learn_odometer_resolution,
+    odometer_resolution,
+)
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -131,6 +136,7 @@ def odometer_glitches(
     *,
     max_accel_mps2: float,
     max_speed_mps: float,
+    extra_margin_m: FloatArray | float = 0.0,
 ) -> BoolArray:
     """Which odometer steps no run between the two reports' speeds can explain.
 
@@ -150,6 +156,9 @@ def odometer_glitches(
         The reported speeds of the previous report and of this one, m/s.
     max_accel_mps2, max_speed_mps : float, keyword-only
         The physical bounds.
+    extra_margin_m : ndarray of float or float, keyword-only
+        Added to the margin, m: a coarse odometer's steps
+        (:func:`~antikol.positioning.odometerresolution.glitch_margin`).
 
     Returns
     -------
@@ -164,7 +173,7 @@ def odometer_glitches(
     slack = 0.5 * max_accel_mps2 * dt * dt
     low = np.maximum(np.minimum(speed_before_mps, speed_mps) * dt - slack, 0.0)
     high = np.minimum(np.maximum(speed_before_mps, speed_mps) * dt + slack, max_speed_mps * dt)
-    margin = ODOMETER_MARGIN_M + ODOMETER_MARGIN_FRACTION * high
+    margin = ODOMETER_MARGIN_M + ODOMETER_MARGIN_FRACTION * high + extra_margin_m
     with np.errstate(invalid="ignore"):
         return np.asarray((step_m < low - margin) | (step_m > high + margin), dtype=bool)
 
@@ -181,16 +190,20 @@ def unusable_odometers(
 ) -> tuple[BoolArray, BoolArray]:
     """Which new readings reset the odometer (:func:`odometer_resets`) and which others
     make a step the speeds cannot have run (:func:`odometer_glitches`), against each
-    vehicle's state in ``fleet`` (read only) before the reports of ``rows`` (time ``t``,
-    s; speed, m/s; reading, m)."""
+    vehicle's state in ``fleet`` before the reports of ``rows`` (time ``t``, s; speed,
+    m/s; reading, m); the steps teach each vehicle's odometer resolution
+    (:mod:`~antikol.positioning.odometerresolution`), which widens the bounds."""
     reset = odometer_resets(odometer_m, fleet.odo[rows])
+    step = odometer_m - previous_odometer(fleet, rows)
+    learn_odometer_resolution(fleet, rows, np.where(reset, np.nan, step))
     glitch = ~reset & odometer_glitches(
-        odometer_m - previous_odometer(fleet, rows),
+        step,
         t - fleet.t[rows],
         fleet.v[rows],
         speed_mps,
         max_accel_mps2=max_accel_mps2,
         max_speed_mps=max_speed_mps,
+        extra_margin_m=glitch_margin(odometer_resolution(fleet, rows), margin_m=ODOMETER_MARGIN_M),
     )
     return reset, glitch
 

@@ -41,12 +41,12 @@ VEHICLE_FIELDS = (
     "run_nofix", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "urun", "udisp", "urep", "uscale",
     "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
-    "opxx", "opxy", "oscale", "bvar",
+    "opxx", "opxy", "oscale", "bvar", "oq", "oqn", "ostep",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
-    "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf",
+    "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf", "oq", "ostep",
 )  # fmt: skip
 
 
@@ -110,7 +110,9 @@ class FleetState:
     # pooled raw run, m, the current run of fixes' regression of progress on the
     # odometer and the pooled one of the runs before, and the scale); the mean square of
     # its GPS bias across the track (:mod:`antikol.positioning.biasscale`, m², 0: none
-    # learnt)
+    # learnt); its odometer's resolution (the smallest difference of successive steps, m,
+    # NaN: none yet, and how often it was seen) and last step, m
+    # (:mod:`antikol.positioning.odometerresolution`)
     t: FloatArray = field(init=False)
     x: FloatArray = field(init=False)
     y: FloatArray = field(init=False)
@@ -156,6 +158,9 @@ class FleetState:
     opxy: FloatArray = field(init=False)
     oscale: FloatArray = field(init=False)
     bvar: FloatArray = field(init=False)
+    oq: FloatArray = field(init=False)
+    oqn: FloatArray = field(init=False)
+    ostep: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -214,6 +219,7 @@ class FleetState:
         self.uscale[row] = self.oscale[row] = 1.0
         for name in (
             "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy", "bvar",
+            "oqn",
         ):  # fmt: skip
             getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0

@@ -40,6 +40,7 @@ from antikol.positioning.fixerror import (
     fix_error_update,
 )
 from antikol.positioning.fleet import FleetState
+from antikol.positioning.odometerresolution import odometer_resolution, quantisation_sigma
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.report import VehicleReport
 
@@ -250,9 +251,15 @@ def score_fixes(
     # an odometer makes the first part exact, not the second, so it narrows the scale
     # only by the speeds' share of it; the outlier gate keeps the odometer's own scale
     # (a fix 50 m off along the track is no move a good odometer allows)
+    # (a coarse odometer's step is off by up to its unit: odometerresolution)
+    quant = np.where(
+        has_odo,
+        quantisation_sigma(odometer_resolution(fleet, rows), step_sigma_m=c.odometer_step_sigma_m),
+        0.0,
+    )
     beta = np.where(
         has_odo,
-        c.transition_beta_m + 0.02 * travelled,
+        c.transition_beta_m + 0.02 * travelled + quant,
         c.transition_beta_m + 0.1 * travelled,
     )[cv][pc]
     # a standing vehicle may change direction (bidirectional trams at termini)
@@ -264,7 +271,9 @@ def score_fixes(
     gate_cost = move_cost  # (the same scale without an odometer)
     odo_pair = has_odo[cv][pc]
     if odo_pair.any():
-        gate_beta = np.where(odo_pair, 0.3 * c.transition_beta_m + 0.02 * exp_m, beta)
+        gate_beta = np.where(
+            odo_pair, 0.3 * c.transition_beta_m + 0.02 * exp_m + quant[cv][pc], beta
+        )
         gate_cost = off_m / gate_beta
     pcv = cv[pc]
     still = standing[pcv]
@@ -296,7 +305,7 @@ def score_fixes(
     # the error of the predicted distance: the odometer's, or the speeds' over the interval
     run_var = np.where(
         has_odo,
-        (c.odometer_sigma_fraction * travelled) ** 2 + c.odometer_step_sigma_m**2,
+        (c.odometer_sigma_fraction * travelled) ** 2 + c.odometer_step_sigma_m**2 + quant**2,
         (c.speed_sigma_mps * dt) ** 2 + (c.speed_distance_sigma_fraction * travelled) ** 2,
     )[pcv]
     shift = np.where(np.isfinite(dist), exp_m - dist, 0.0)
