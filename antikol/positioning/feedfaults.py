@@ -53,11 +53,7 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.positioning.fleet import FleetState, RunSinceFix
-from antikol.positioning.odometerresolution import (
-    glitch_margin,
-    learn_odometer_resolution,
-    odometer_resolution,
-)
+from antikol.positioning.odometerresolution import glitch_margin, odometer_resolution
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -190,14 +186,12 @@ def unusable_odometers(
 ) -> tuple[BoolArray, BoolArray]:
     """Which new readings reset the odometer (:func:`odometer_resets`) and which others
     make a step the speeds cannot have run (:func:`odometer_glitches`), against each
-    vehicle's state in ``fleet`` before the reports of ``rows`` (time ``t``, s; speed,
-    m/s; reading, m); the steps teach each vehicle's odometer resolution
-    (:mod:`~antikol.positioning.odometerresolution`), which widens the bounds."""
+    vehicle's state in ``fleet`` (read only) before the reports of ``rows`` (time ``t``,
+    s; speed, m/s; reading, m); a coarse odometer's resolution
+    (:mod:`~antikol.positioning.odometerresolution`) widens the bounds."""
     reset = odometer_resets(odometer_m, fleet.odo[rows])
-    step = odometer_m - previous_odometer(fleet, rows)
-    learn_odometer_resolution(fleet, rows, np.where(reset, np.nan, step))
     glitch = ~reset & odometer_glitches(
-        step,
+        odometer_m - previous_odometer(fleet, rows),
         t - fleet.t[rows],
         fleet.v[rows],
         speed_mps,

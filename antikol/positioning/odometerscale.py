@@ -48,6 +48,7 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.positioning.fleet import FleetState
+from antikol.positioning.odometerresolution import learn_odometer_resolution
 
 __all__ = ["MAX_SCALE_ERROR", "POOL_M", "corrected_odometers", "learn_odometer_scale"]
 
@@ -74,7 +75,9 @@ def corrected_odometers(fleet: FleetState, rows: IntArray, raw_m: FloatArray) ->
     Parameters
     ----------
     fleet : FleetState
-        Its ``oraw`` and ``ocor`` (the last raw and corrected readings, m) are updated.
+        Its ``oraw`` and ``ocor`` (the last raw and corrected readings, m) are updated, and
+        the raw steps teach the odometer's resolution
+        (:func:`~antikol.positioning.odometerresolution.learn_odometer_resolution`).
     rows : ndarray of int
         Each reading's vehicle row (each vehicle once).
     raw_m : ndarray
@@ -92,6 +95,9 @@ def corrected_odometers(fleet: FleetState, rows: IntArray, raw_m: FloatArray) ->
         return raw
     last_raw = fleet.oraw[rows]
     known = np.isfinite(raw) & np.isfinite(last_raw)
+    # (the counter's unit shows in its raw steps; a step back is a reset, no step)
+    raw_step = np.where(known, raw - np.where(known, last_raw, 0.0), np.nan)
+    learn_odometer_resolution(fleet, rows, np.where(raw_step >= 0.0, raw_step, np.nan))
     scaled = fleet.ocor[rows] + fleet.oscale[rows] * (raw - np.where(known, last_raw, 0.0))
     out = np.where(known, scaled, raw)
     fleet.oraw[rows[have]] = raw[have]
