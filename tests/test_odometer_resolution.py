@@ -26,6 +26,7 @@ from antikol.positioning.odometerresolution import (
     learn_odometer_resolution,
     odometer_resolution,
     quantisation_sigma,
+    usable_readings,
 )
 from tests._osm import FRAME, STRAIGHT_LINE, straight_fixture
 from tests._paths import reports_along
@@ -84,11 +85,25 @@ def test_the_resolution_is_never_coarser_than_the_unit(unit, speeds, origin):
 
 
 def test_the_widening_is_zero_for_fine_counters():
-    sigma = quantisation_sigma(np.array([np.nan, 0.1, 1.0, 3.0, 10.0]), step_sigma_m=0.25)
+    sigma = quantisation_sigma(np.array([np.nan, 0.1, 1.0, 5.0, 10.0]), step_sigma_m=0.25)
     assert sigma[:4].tolist() == [0.0, 0.0, 0.0, 0.0]
     assert sigma[4] == pytest.approx(math.sqrt(100.0 / 6.0 - 0.0625))
     margin = glitch_margin(np.array([np.nan, 1.0, 10.0]), margin_m=2.0)
     assert margin.tolist() == [0.0, 0.0, 8.0]
+
+
+def test_a_counter_coarser_than_15_m_is_not_used():
+    fleet = FleetState(k=2)
+    fleet.grow(3)
+    rows = np.array([0, 1, 2])
+    # rows: a counter in 100-m units, one in 10-m units, a fine one
+    for k in range(8):
+        steps = [100.0 * (k % 2), 10.0 * (k % 2), 8.0 + 0.1 * (k % 3)]
+        learn_odometer_resolution(fleet, rows, np.array(steps))
+    learnt = odometer_resolution(fleet, rows)
+    assert learnt[:2].tolist() == [100.0, 10.0]
+    kept = usable_readings(fleet, rows, np.array([5000.0, 5010.0, 5000.3]))
+    assert np.isnan(kept[0]) and kept[1:].tolist() == [5010.0, 5000.3]
 
 
 def _run_with_odometer(unit: float, *, seconds: int = 80, speed: float = 8.0):
@@ -106,7 +121,7 @@ def _run_with_odometer(unit: float, *, seconds: int = 80, speed: float = 8.0):
     return out
 
 
-@pytest.mark.parametrize("unit", [10.0, 20.0])
+@pytest.mark.parametrize("unit", [10.0, 20.0, 100.0])
 def test_a_tram_with_a_coarse_odometer_is_placed_within_metres(straight, unit):
     speed = 8.0
     pos = Positioner(straight, PositioningConfig())

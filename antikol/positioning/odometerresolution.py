@@ -28,9 +28,10 @@ and dead reckoning; the glitch bounds widen by the resolution beyond their margi
 coarser than :data:`MAX_USABLE_RESOLUTION_M` is not used (:func:`usable_readings`): one
 step of it spans seconds of running, and the reported speeds say more. On the simulator
 (seeds 4–6 of the street receiver, pooled), 10-m units: wrong past switches 406 → 19 of
-779, confident and wrong 937 → 13; 100-m units: 384 → Q100SW and 1,240 → Q100CW. Finer counters
-(HSL's integer metres; 5-m units, where modelling the rounding made more estimates
-confident and wrong than it saved) change nothing.
+779, confident and wrong 937 → 13; 100-m units: 384 → 46 and 1,240 → 69 (as without an
+odometer). Units up to 6 m only widen the glitch bounds (modelling the rounding of 5-m
+units made more estimates confident and wrong than it saved); HSL's integer metres change
+nothing.
 
 >>> import numpy as np
 >>> quantisation_sigma(np.array([0.1, 1.0, 10.0, np.nan]), step_sigma_m=0.25).round(2).tolist()
@@ -63,7 +64,7 @@ FloatArray = npt.NDArray[np.float64]
 COARSE_RESOLUTION_M: Final = 6.0
 #: An odometer whose unit is coarser than this is not used at all, m: its steps say less
 #: than the reported speeds.
-MAX_USABLE_RESOLUTION_M: Final = 25.0
+MAX_USABLE_RESOLUTION_M: Final = 15.0
 #: How many differences of one size between successive steps confirm a resolution.
 CONFIRMATIONS: Final = 3
 
