@@ -95,7 +95,10 @@ class UrbanGpsModel:
 
     The odometer (``odometer``) reads the distance travelled by the front times
     ``1 + ε``, ``ε ~ N(0, odometer_scale_sigma²)`` per tram, from a random origin,
-    rounded to ``odometer_resolution_m``. With ``report_without_fix`` every epoch without a
+    rounded to ``odometer_resolution_m``; with ``odometer_period_s`` the counter is updated
+    only every that many seconds (from a random phase, not in step with the reports) and
+    each report reads its last update (a unit that reads its counter on a slower cycle
+    than it sends its fixes). With ``report_without_fix`` every epoch without a
     position fix (an outage or a tunnel, once the tram had a first fix) still yields a
     report with ``fix_quality = 0``, the last reported position and course, the wheel speed
     (true speed plus N(0, ``speed_sigma_mps``²)) and the odometer; reports with a fix carry
@@ -118,8 +121,8 @@ class UrbanGpsModel:
     jump_interval_s, outlier_rate, outlier_sigma_m, dropout_open_hz, dropout_canyon_hz,
     dropout_mean_s, missing_rate, tunnel_dropout, tunnel_reacquire_s, rate_hz,
     speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, course_held_at_start, odometer,
-    odometer_scale_sigma, odometer_resolution_m, report_without_fix, fix_quality_field,
-    latency_s, estimates_along_route, estimates_extrapolated
+    odometer_scale_sigma, odometer_resolution_m, odometer_period_s, report_without_fix,
+    fix_quality_field, latency_s, estimates_along_route, estimates_extrapolated
         As above (metres, seconds, Hz, probabilities, m/s, degrees).
     canyon_open, canyon_double_track : float
         Canyon factor of track without and with a parallel opposite-direction track.
@@ -152,6 +155,7 @@ class UrbanGpsModel:
     odometer: bool = True
     odometer_scale_sigma: float = 0.005
     odometer_resolution_m: float = 0.1
+    odometer_period_s: float = 0.0
     report_without_fix: bool = True
     fix_quality_field: bool = True
     latency_s: float = 0.0
@@ -179,6 +183,7 @@ class UrbanGpsModel:
                 "course_hold_speed_mps",
                 "odometer_scale_sigma",
                 "odometer_resolution_m",
+                "odometer_period_s",
                 "canyon_spread",
                 "latency_s",
             ),
@@ -358,6 +363,13 @@ def observe_urban(
         scale = 1.0 + gps.odometer_scale_sigma * float(z[0, 4])  # unused by the bias at 0
         origin = float(u[0, 6]) * _ODOMETER_ORIGIN_M
         raw = origin + scale * (ep.distance_m - ep.distance_m[0])
+        if gps.odometer_period_s > 0.0:
+            # the counter updates on a cycle of its own (its phase drawn from the origin's
+            # draw): each report reads the value of the counter's last update before it
+            period = gps.odometer_period_s
+            phase = (float(u[0, 6]) * 97.0) % 1.0 * period
+            updated = tf[0] + np.floor((tf - tf[0] - phase) / period) * period + phase
+            raw = np.interp(np.maximum(updated, tf[0]), tf, raw)
         res = gps.odometer_resolution_m
         odometer = np.round(np.floor(raw / res) * res, 6) if res > 0 else raw
         odometer = np.maximum.accumulate(np.maximum(odometer, 0.0))
