@@ -226,3 +226,24 @@ def test_bad_urban_parameters_are_rejected():
         UrbanGpsModel(canyon_open=1.5)
     with pytest.raises(ValueError, match="jump_interval_s"):
         UrbanGpsModel(jump_interval_s=0.0)
+
+
+@pytest.mark.parametrize("period", [2.0, 5.0])
+def test_an_odometer_read_every_few_seconds_holds_its_last_update(street, period):
+    spec = TramSpec("U", _north_route(street), stops=(), max_speed_mps=10.0)
+    gps = GpsModel.urban(odometer_period_s=period, odometer_scale_sigma=0.0)
+    result = Simulator(street, [spec], gps=gps, seed=3).run(300.0)
+    reports = result.reports_of("U")
+    truth = result.truth["U"]
+    t = np.array([r.t for r in reports])
+    odo = np.array([r.odometer_m for r in reports])
+    changes = np.flatnonzero(np.diff(odo) > 0.0) + 1
+    # once per cycle at most, and held in between while the tram runs
+    assert len(changes) <= 300.0 / period + 1
+    assert np.diff(t[changes]).min() >= period - 1.0 - 1e-9
+    assert (np.diff(odo) == 0.0).sum() >= (1.0 - 1.0 / period) * (len(odo) - 1) - 2
+    # each changed reading is the distance at some moment since the report before
+    run_m = odo - odo[0]
+    before = np.interp(t[changes - 1], truth.t_s, truth.distance_m) - truth.distance_m[0]
+    now = np.interp(t[changes], truth.t_s, truth.distance_m) - truth.distance_m[0]
+    assert np.all(run_m[changes] >= before - 0.2) and np.all(run_m[changes] <= now + 0.2)

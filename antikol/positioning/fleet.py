@@ -42,11 +42,13 @@ VEHICLE_FIELDS = (
     "ux", "uy", "utrail", "ut", "uv", "urun", "udisp", "urep", "uscale",
     "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
     "opxx", "opxy", "oscale", "bvar", "oq", "oqn", "ostep",
+    "kraw", "kt", "kv", "kacc", "klow", "kn", "kmin",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf", "oq", "ostep",
+    "kraw", "kt", "klow", "kmin",
 )  # fmt: skip
 
 
@@ -161,6 +163,13 @@ class FleetState:
     oq: FloatArray = field(init=False)
     oqn: FloatArray = field(init=False)
     ostep: FloatArray = field(init=False)
+    kraw: FloatArray = field(init=False)
+    kt: FloatArray = field(init=False)
+    kv: FloatArray = field(init=False)
+    kacc: FloatArray = field(init=False)
+    klow: FloatArray = field(init=False)
+    kn: FloatArray = field(init=False)
+    kmin: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -219,7 +228,7 @@ class FleetState:
         self.uscale[row] = self.oscale[row] = 1.0
         for name in (
             "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy", "bvar",
-            "oqn",
+            "oqn", "kv", "kacc", "kn",
         ):  # fmt: skip
             getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0

@@ -69,6 +69,7 @@ from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.kalman import track_estimate
 from antikol.positioning.lineage import plan_slots
+from antikol.positioning.odometerhold import held_readings
 from antikol.positioning.odometerresolution import usable_readings
 from antikol.positioning.odometerscale import corrected_odometers
 from antikol.positioning.outputs import (
@@ -388,6 +389,7 @@ class Positioner:
         odo = np.fromiter(
             (math.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
         )
+        odo = held_readings(self._f, rows, t, speed * self._f.uscale[rows], odo)
         odo = usable_readings(self._f, rows, corrected_odometers(self._f, rows, odo))
         no_fix = np.fromiter((r.fix_quality in NOT_MEASURED for r in reports), bool, n)
         # faults of the feed: a reset odometer leaves no baseline (this step runs on the

@@ -51,6 +51,7 @@ __all__ = [
     "COARSE_RESOLUTION_M",
     "CONFIRMATIONS",
     "MAX_USABLE_RESOLUTION_M",
+    "forget_odometer_resolution",
     "glitch_margin",
     "learn_odometer_resolution",
     "odometer_resolution",
@@ -96,6 +97,13 @@ def learn_odometer_resolution(
     smaller = ~again & ~(d > known)  # (also where none is known: NaN)
     fleet.oqn[r] = np.where(again, fleet.oqn[r] + 1.0, np.where(smaller, 1.0, fleet.oqn[r]))
     fleet.oq[r] = np.where(smaller, d, known)
+
+
+def forget_odometer_resolution(fleet: FleetState, rows: npt.NDArray[np.int64]) -> None:
+    """Forget what was learnt of the resolution of the odometers of ``rows`` (their
+    readings are filled in from now on: :mod:`~antikol.positioning.odometerhold`)."""
+    fleet.oq[rows] = fleet.ostep[rows] = np.nan
+    fleet.oqn[rows] = 0.0
 
 
 def odometer_resolution(fleet: FleetState, rows: npt.NDArray[np.int64]) -> FloatArray:
