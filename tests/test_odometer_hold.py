@@ -170,3 +170,23 @@ def test_a_tram_with_a_held_odometer_is_placed_as_with_a_fine_one(straight, peri
     rms = float(np.sqrt(np.mean(held**2)))
     assert rms < max(1.5 * float(np.sqrt(np.mean(fine**2))), 1.0)
     assert np.abs(held).max() < 2.0 * HELD_MIN_RUN_M
+
+
+def test_a_late_report_changes_nothing():
+    t = np.arange(0.0, 120.0)
+    raw = _held_counter(t, 5.0, 0.5)
+    fleet = FleetState(k=2)
+    fleet.grow(1)
+    rows = np.array([0])
+    out = []
+    for k, (ti, vi, ri) in enumerate(zip(t, _speed(t), raw, strict=True)):
+        out.append(held_readings(fleet, rows, np.array([ti]), np.array([vi]), np.array([ri]))[0])
+        if k == 80:
+            before = {name: getattr(fleet, name)[0] for name in ("kraw", "kt", "kacc", "kn")}
+            late = held_readings(
+                fleet, rows, np.array([ti - 3.0]), np.array([vi]), np.array([raw[k - 3]])
+            )
+            assert late[0] == raw[k - 3]
+            assert {name: getattr(fleet, name)[0] for name in before} == before
+    reference, _ = _fill(t, _speed(t), raw)
+    assert np.array_equal(np.array(out), reference, equal_nan=True)

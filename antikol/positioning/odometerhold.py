@@ -132,11 +132,22 @@ def held_readings(
     -------
     ndarray of float
         The readings, m: as reported, or for a held counter the reading plus the run
-        since its last update.
+        since its last update; a report no later than the vehicle's last passes as it
+        is and changes nothing.
     """
     raw = np.asarray(raw_m, dtype=float)
     if not np.isfinite(raw).any() and not np.isfinite(fleet.kraw[rows]).any():
         return raw  # (most feeds have no odometer)
+    t_s = np.asarray(t_s, dtype=float)
+    late = t_s <= fleet.kt[rows]
+    if late.any():
+        # a report no later than the last one changes nothing (the positioner rejects
+        # it for its time): its reading passes as it is
+        out = raw.copy()
+        on = ~late
+        if on.any():
+            out[on] = held_readings(fleet, rows[on], t_s[on], np.asarray(speed_mps)[on], raw[on])
+        return out
     v = np.nan_to_num(np.asarray(speed_mps, dtype=float))
     # (a standing vehicle's reported speed is noise: summed over a stop it ran metres)
     v = np.where(v >= STANDING_SPEED_MPS, v, 0.0)
