@@ -190,3 +190,39 @@ def test_a_late_report_changes_nothing():
             assert {name: getattr(fleet, name)[0] for name in before} == before
     reference, _ = _fill(t, _speed(t), raw)
     assert np.array_equal(np.array(out), reference, equal_nan=True)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    steps=st.lists(
+        st.tuples(
+            st.floats(0.0, 5.0),  # time step, s (0: a repeat)
+            st.one_of(st.floats(-5.0, 40.0), st.just(math.nan)),  # reported speed
+            st.one_of(st.floats(-50.0, 200.0), st.just(0.0), st.just(math.nan)),  # step
+        ),
+        min_size=1,
+        max_size=60,
+    )
+)
+def test_any_sequence_of_readings_is_taken_without_error(steps):
+    # whatever comes (repeats, steps back, NaN, negative speeds): no exception, a reading
+    # passes through or is filled in, and a filled-in counter never runs back between
+    # readings that do not
+    fleet = FleetState(k=2)
+    fleet.grow(1)
+    rows = np.array([0])
+    t, raw, before = 0.0, 1000.0, None
+    for dt, speed, step in steps:
+        t += dt
+        raw = raw + step if math.isfinite(step) else raw
+        reading = raw if math.isfinite(step) else math.nan
+        out = held_readings(fleet, rows, np.array([t]), np.array([speed]), np.array([reading]))
+        assert out.shape == (1,)
+        if math.isnan(reading):
+            assert math.isnan(out[0])
+        elif not math.isnan(out[0]):
+            assert out[0] >= reading  # as read, or the run since the last update added
+            if before is not None and dt > 0.0 and step >= 0.0 and is_held(fleet, rows)[0]:
+                assert out[0] >= before[0] - 1e-9 or before[1] > reading
+        if not math.isnan(out[0]):
+            before = (out[0], reading)
