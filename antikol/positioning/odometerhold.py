@@ -106,6 +106,30 @@ def is_held(fleet: FleetState, rows: IntArray) -> npt.NDArray[np.bool_]:
     return np.asarray(fleet.kn[rows] >= CONFIRMATIONS, dtype=bool)
 
 
+def _catches_up(
+    step: FloatArray,
+    hold_low: FloatArray,
+    ran: FloatArray,
+    run: FloatArray,
+    smallest: FloatArray,
+    clear_run: FloatArray,
+) -> npt.NDArray[np.bool_]:
+    """Whether each counter step (m) is a held counter's catch-up: it ends a hold whose
+    every step ran at least ``clear_run`` (``hold_low``, m), it makes up the run of the
+    whole hold (``ran``, m) up to some moment of its last step (``run``, m), and the
+    counter is no coarse one (it made a step of :data:`HELD_MIN_RUN_M` or less before, or
+    this step is no multiple of its ``smallest``)."""
+    tol = CATCH_UP_TOLERANCE_M + CATCH_UP_TOLERANCE_FRACTION * ran
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fine = (smallest <= HELD_MIN_RUN_M) | (
+            np.abs(step / smallest - np.round(step / smallest)) > _MULTIPLE_TOLERANCE
+        )
+        return np.asarray(
+            fine & (hold_low >= clear_run) & (step >= ran - run - tol) & (step <= ran + tol),
+            dtype=bool,
+        )
+
+
 def held_readings(
     fleet: FleetState, rows: IntArray, t_s: FloatArray, speed_mps: FloatArray, raw_m: FloatArray
 ) -> FloatArray:
@@ -116,9 +140,9 @@ def held_readings(
     fleet : FleetState
         Changed in place for ``rows``: the last reading ``kraw`` (m), the time ``kt`` (s)
         and speed ``kv`` (m/s) of the last report, the run since the counter's last update
-        ``kacc`` (m), the shortest step run of the current hold ``klow`` (m, NaN: no hold)
-        and the catch-ups seen ``kn``; a vehicle found held has its odometer resolution
-        forgotten.
+        ``kacc`` (m), the shortest step run of the current hold ``klow`` (m, NaN: no hold),
+        the smallest step its counter made ``kmin`` (m) and the catch-ups seen ``kn``; a
+        vehicle found held has its odometer resolution forgotten.
     rows : ndarray of int
         Each report's vehicle row (each vehicle once).
     t_s : ndarray of float
@@ -164,25 +188,12 @@ def held_readings(
         changed = known & (step > _SAME_M)
     acc = fleet.kacc[rows]
     hold_low = fleet.klow[rows]
-    # evidence: a counter that has counted finely stands still over a clear run, then
-    # catches up the run of the hold up to some moment of the last step
     ran = acc + run
-    tol = CATCH_UP_TOLERANCE_M + CATCH_UP_TOLERANCE_FRACTION * ran
     smallest = fleet.kmin[rows]
     clear_run = np.clip(2.0 * smallest, _HELD_MIN_RUN_FINE_M, HELD_MIN_RUN_M)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # (a coarse counter's steps are all multiples of its unit, the smallest of them)
-        fine = (smallest <= HELD_MIN_RUN_M) | (
-            np.abs(step / smallest - np.round(step / smallest)) > _MULTIPLE_TOLERANCE
-        )
-        evidence = (
-            changed
-            & fine
-            & (hold_low >= clear_run)
-            & (step >= ran - run - tol)
-            & (step <= ran + tol)
-        )
-        fleet.kmin[rows] = np.where(changed, np.fmin(fleet.kmin[rows], step), fleet.kmin[rows])
+    evidence = changed & _catches_up(step, hold_low, ran, run, smallest, clear_run)
+    with np.errstate(invalid="ignore"):
+        fleet.kmin[rows] = np.where(changed, np.fmin(smallest, step), smallest)
     was_held = is_held(fleet, rows)
     fleet.kn[rows] += evidence
     now_held = is_held(fleet, rows)
