@@ -226,3 +226,19 @@ def test_any_sequence_of_readings_is_taken_without_error(steps):
                 assert out[0] >= before[0] - 1e-9 or before[1] > reading
         if not math.isnan(out[0]):
             before = (out[0], reading)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_a_counter_read_at_irregular_times_is_filled_in_too(seed):
+    # a unit whose reads of the counter come every 2-8 s, at no fixed phase
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 240.0)
+    reads = np.cumsum(rng.uniform(2.0, 8.0, 80))
+    last_read = np.array([reads[reads <= ti].max(initial=0.0) for ti in t])
+    raw = np.floor((1000.0 + _distance(last_read)) * 10.0) / 10.0
+    truth = 1000.0 + _distance(t)
+    out, fleet = _fill(t, _speed(t), raw)
+    assert is_held(fleet, np.array([0]))[0]
+    later = t > 150.0
+    assert np.abs(out - truth)[later].max() <= 9.0 + 0.2
