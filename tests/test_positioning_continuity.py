@@ -43,6 +43,7 @@ _SWUNG_BELIEF = "a_swung_belief_before_an_outage.json"
 _PAST_A_JUNCTION = "an_outage_past_a_switch_and_a_junction.json"
 _BEYOND_RADIUS = "a_fix_beyond_the_search_radius_of_a_learnt_bias.json"
 _BEHIND_LINEAGE = "behind_its_lineage_past_a_switch_and_a_junction.json"
+_TOSS_AT_SWITCH = "an_outage_at_a_switch_then_the_other_branch.json"
 
 
 @pytest.fixture(scope="module")
@@ -834,3 +835,16 @@ def test_an_outage_past_a_switch_holds_at_it_over_a_junction_just_past_it():
     assert shown.status == "ambiguous"
     assert shown.sigma_m is not None and shown.sigma_m > 34.0  # the run past it, unknown
     assert out[399.0].edge_id == 68 and out[399.0].status == "confident"  # the other branch
+
+
+def test_a_coin_toss_at_a_switch_gives_way_before_it_is_shown():
+    # an outage over a facing switch (t = 318-321 s) split the tram 50/50 over the two
+    # branches, which run side by side for their first 80 m; its lineage went onto 39, the
+    # first fixes back favour 219 (0.67-0.70) while it is still shown at the switch. Kept
+    # until 219 was decisive, the lineage was shown on 39 at 0.44 when the hold ran out,
+    # then the tram jumped to 219 (a window no permitted route connects)
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _TOSS_AT_SWITCH, "T07")
+    past = [p for p in out if 322.0 <= p.t <= 332.0]  # (219 until 332 s)
+    assert all(p.edge_id in (373, 219) for p in past), [(p.t, p.edge_id) for p in past]
+    _assert_connected(net, [p for p in out if p.matched])

@@ -8,7 +8,7 @@ import pytest
 from antikol.positioning.lineage import plan_slots
 
 
-def _plan_one(p: list[float], parent: list[int], *, standing: bool, same_way=None):
+def _plan_one(p: list[float], parent: list[int], *, standing: bool, same_way=None, tossed=None):
     """The slot plan of one report whose candidates, ranked by probability, have the
     probabilities ``p`` and descend from the previous slots ``parent``."""
     return plan_slots(
@@ -24,6 +24,7 @@ def _plan_one(p: list[float], parent: list[int], *, standing: bool, same_way=Non
         switch_probability=0.75,
         standing_switch_probability=0.95,
         same_way=same_way,
+        tossed=tossed,
     )
 
 
@@ -98,3 +99,57 @@ def test_a_lineage_beside_the_best_is_held_however_little_is_left():
         assert _beside(1.0 - p_lineage, p_lineage, beside=None)[0].chosen.tolist() == [0]
     # asked only where the lineage would be left
     assert _beside(0.6, 0.4, beside=True)[1] == []
+
+
+@pytest.mark.parametrize(("tossed", "follows"), [(True, "best"), (False, "lineage")])
+def test_a_lineage_that_was_a_coin_toss_not_shown_yet_gives_way(tossed, follows):
+    # an outage at a switch split the vehicle 50/50 and the lineage went one way; the
+    # first fix back favours the other while the vehicle is still shown at the switch
+    calls = []
+
+    def ask(report, best, lineage):
+        calls.append((report.tolist(), best.tolist(), lineage.tolist()))
+        return np.full(len(report), tossed)
+
+    plan = _plan_one([0.65, 0.35], [1, 0], standing=False, tossed=ask)
+    assert plan.chosen[0] == (0 if follows == "best" else 1)
+    assert calls == [([0], [0], [1])]
+    # a near toss itself (below the lead) is not asked about: the lineage stays
+    calls.clear()
+    assert _plan_one([0.55, 0.45], [1, 0], standing=False, tossed=ask).chosen[0] == 1
+    assert calls == []
+    # a decisive best is followed without asking
+    calls.clear()
+    assert _plan_one([0.8, 0.2], [1, 0], standing=False, tossed=ask).chosen[0] == 0
+    assert calls == []
+
+
+def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
+    import trackmap
+    from antikol.positioning.branching import tossed_lineages
+    from antikol.positioning.reach import state_id
+    from tests._osm import FRAME, switch_fixture
+
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "switch.osm"))
+    (on_trunk,) = net.candidates(*FRAME.to_lonlat(0.0, -50.0), radius_m=1.0)[:1]
+    trunk = next(
+        (on_trunk.edge_id, d)
+        for d in (1, -1)
+        if any(e != on_trunk.edge_id for e, _ in net.successors(on_trunk.edge_id, d))
+    )
+    straight, diverging = net.successors(*trunk)[:2]
+    states = np.array([state_id(*s) for s in (straight, diverging, trunk)])
+    parent = np.array([0, 1, 0])  # the candidates descend from slots 0, 1 and 0
+
+    def ask(slot_p: list[float], shown: dict, best: int = 1, lineage: int = 0) -> bool:
+        log_p = np.log(np.array([slot_p]))
+        tossed = tossed_lineages(net, states, parent, log_p, ["V"], shown)
+        return bool(tossed(np.array([0]), np.array([best]), np.array([lineage]))[0])
+
+    # split 50/50 without evidence, shown at the switch: a toss not shown yet
+    assert ask([0.5, 0.5], {"V": trunk})
+    # split by evidence (0.6 / 0.4): the lineage was chosen, not tossed
+    assert not ask([0.6, 0.4], {"V": trunk})
+    # shown on the lineage's own branch, or never shown: kept
+    assert not ask([0.5, 0.5], {"V": straight})
+    assert not ask([0.5, 0.5], {})

@@ -28,16 +28,17 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
+from antikol.positioning.reach import state_direction, state_edge
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
-__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch"]
+__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch", "tossed_lineages"]
 
 #: Past a switch farther than this, the branch is reported even if undecided, m.
 HOLD_M = 40.0
@@ -351,3 +352,74 @@ def hold_at_switch(
         end = net.edges[t_edge].length_m if t_dir == 1 else 0.0
         return SwitchHold(t_edge, end, t_dir, past, node)
     return None
+
+
+#: How many edges ahead of the track a vehicle was last reported on its lineage may be and
+#: still not have been reported (the branch of a switch at the end of that track, or one
+#: beyond a short edge).
+_UNREPORTED_EDGES = 2
+#: Two hypotheses' log-probabilities this close are a tie (a split without evidence).
+_TIE = 1e-9
+
+
+def tossed_lineages(
+    net: TrackMap,
+    states: npt.NDArray[np.int64],
+    parent: npt.NDArray[np.int64],
+    slot_log_p: npt.NDArray[np.float64],
+    vehicle_ids: Sequence[str],
+    reported: Mapping[str, tuple[int, int]],
+) -> Callable[[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]],
+              npt.NDArray[np.bool_]]:  # fmt: skip
+    """The ``tossed`` test of :func:`~antikol.positioning.lineage.plan_slots` for one batch
+    of reports: whether a vehicle's lineage was a coin toss that nothing has shown yet.
+
+    Dead-reckoned over a facing switch without fixes, a vehicle splits evenly over the
+    branches and its lineage follows one of them, the first slot. Kept until the other
+    branch is decisive, as a lineage that has been reported is, it was shown when the
+    switch hold ran out, at 0.44 against 0.56, and a few seconds later the vehicle jumped
+    to the other branch. A lineage is a toss when its hypothesis and the best candidate's
+    parent held the same probability before this fix, and not yet shown when the vehicle
+    was last reported on a track behind it (up to two edges back) from which the best
+    candidate is reachable too: then the best leads, and no chain of reported positions
+    breaks.
+
+    Parameters
+    ----------
+    net : TrackMap
+    states, parent : ndarray of int
+        Per candidate: its track state, and the previous slot it descends from.
+    slot_log_p : ndarray of float, shape (reports, slots)
+        Each report's vehicle's slot log-probabilities before this fix (slot 0: lineage).
+    vehicle_ids : sequence of str
+        Per report: its vehicle.
+    reported : mapping
+        The (edge, direction) each vehicle was last reported on, by vehicle id.
+    """
+
+    def ahead(origin: tuple[int, int], target: tuple[int, int]) -> bool:
+        frontier = [origin]
+        for _ in range(_UNREPORTED_EDGES):
+            frontier = [n for e, d in frontier for n in net.successors(e, d)]
+            if target in frontier:
+                return True
+        return False
+
+    def tossed(
+        report: npt.NDArray[np.int64], best: npt.NDArray[np.int64], lineage: npt.NDArray[np.int64]
+    ) -> npt.NDArray[np.bool_]:
+        out = np.zeros(len(report), dtype=bool)
+        triples = zip(report.tolist(), best.tolist(), lineage.tolist(), strict=True)
+        for i, (n, b, ln) in enumerate(triples):
+            p_lineage, p_best = slot_log_p[n, 0], slot_log_p[n, parent[b]]
+            shown = reported.get(vehicle_ids[n])
+            if parent[b] < 0 or shown is None or abs(p_lineage - p_best) > _TIE:
+                continue
+            ours = (int(state_edge(states[ln])), int(state_direction(states[ln])))
+            if ours == shown or not ahead(shown, ours):
+                continue
+            theirs = (int(state_edge(states[b])), int(state_direction(states[b])))
+            out[i] = theirs == shown or ahead(shown, theirs)
+        return out
+
+    return tossed

@@ -9,7 +9,10 @@ switch it splits over the branches — so successive reported positions stay con
 the track. The lineage is then followed on its most probable descendant. Where the best
 candidate lies on a track beside the lineage's that runs the same way and meets it again a
 short way ahead (``same_way``, opt-in, :mod:`antikol.positioning.siblings`), the lineage can
-be held however decisive the other is. A standing
+be held however decisive the other is. A lineage that was a coin toss (an even split
+without fixes, over a facing switch in an outage) and has not been shown yet is not
+defended against a best of :data:`TOSS_LEAD` (``tossed``,
+:func:`~antikol.positioning.branching.tossed_lineages`). A standing
 vehicle has not left its lineage's place: only very decisive evidence
 (``standing_switch_probability``) moves it to another, however little is left of the
 lineage (the fixes of a tram waiting beside another track drift; the tram does not).
@@ -29,7 +32,11 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["SlotPlan", "plan_slots"]
+__all__ = ["TOSS_LEAD", "SlotPlan", "plan_slots"]
+
+#: A lineage that was a coin toss gives way to a best candidate with this much probability
+#: (not to a near toss itself).
+TOSS_LEAD = 0.6
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -67,6 +74,7 @@ def plan_slots(
     switch_probability: float,
     standing_switch_probability: float,
     same_way: Callable[[IntArray, IntArray, IntArray], BoolArray] | None = None,
+    tossed: Callable[[IntArray, IntArray, IntArray], BoolArray] | None = None,
 ) -> SlotPlan:
     """Keep the best ``k`` candidates of each committed report and order them into slots.
 
@@ -92,6 +100,10 @@ def plan_slots(
         best candidates and of the lineage's most probable descendants that would replace
         them: whether each lineage is held, however decisive the best (tracks side by side
         that meet again).
+    tossed : callable, optional
+        ``tossed(report, best, lineage)`` (as ``same_way``): whether each lineage was a
+        coin toss not shown yet (:func:`~antikol.positioning.branching.tossed_lineages`):
+        such a lineage is not held against a best of :data:`TOSS_LEAD` or more.
 
     Returns
     -------
@@ -127,6 +139,9 @@ def plan_slots(
         )[go]
         held = kept & ~keep_best
         held &= (lineage_mass > 1.0 - switch_probability) | standing[go]
+        asked = np.flatnonzero(held & (p[best] >= TOSS_LEAD))
+        if tossed is not None and len(asked):
+            held[asked] = ~tossed(go[asked], best[asked], lineage[asked])
         ask = np.flatnonzero(has_lineage & ~of_own & ~held)
         if same_way is not None and len(ask):
             # however little is left of it: it is held only until the tracks meet

@@ -58,7 +58,7 @@ import numpy.typing as npt
 from antikol.gcpause import gc_paused
 from antikol.positioning.alongtrack import run_track_filters
 from antikol.positioning.biasscale import learn_bias_sigma
-from antikol.positioning.branching import Arrivals
+from antikol.positioning.branching import Arrivals, tossed_lineages
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
@@ -595,11 +595,7 @@ class Positioner:
         cs, co, prog, ww, came, error_cols = candidates
         f = self._f
         chosen, m_idx, m_group, col = plan_slots(
-            rank_order,
-            bounds,
-            p,
-            parent,
-            go,
+            *(rank_order, bounds, p, parent, go),
             fresh=fresh,
             standing=standing,
             k=self._k,
@@ -607,6 +603,9 @@ class Positioner:
             switch_probability=c.switch_probability,
             standing_switch_probability=c.standing_switch_probability,
             same_way=self._siblings.asker(cs, co, reports, rows, f.hs, self._reported),
+            tossed=tossed_lineages(
+                self.net, cs, parent, f.hp[rows], [r.vehicle_id for r in reports], self._reported
+            ),
         )
         r = rows[m_group]
         done = rows[go]
