@@ -6,8 +6,8 @@ a tram's 8 m, and then, at the report after its next reading, the 40 m of five s
 once. Taken as wheel measurements those steps are a standstill and a burst: on the
 simulator's street receiver (seeds 4–6 pooled, ``python benchmarks/positioning_accuracy.py
 --gps urban --gps-set odometer_period_s=5``) 311 of 779 estimates past a switch were on the
-wrong branch and 724 confident estimates wrong; filled in, 10 and 1 (a counter read every
-report: 7 and 1). Read every 2 s: 53 and 48 → 6 and 2; every 10 s: 349 and 1,047 → 11
+wrong branch and 724 confident estimates wrong; filled in, 8 and 1 (a counter read every
+report: 5 and 1). Read every 2 s: 53 and 48 → 4 and 2; every 10 s: 349 and 1,047 → 9
 and 5.
 
 **What gives such a counter away** (:func:`held_readings`): a reading that stays the same
