@@ -126,6 +126,7 @@ def test_a_lineage_that_was_a_coin_toss_not_shown_yet_gives_way(tossed, follows)
 
 def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
     import trackmap
+    from antikol import VehicleReport
     from antikol.positioning.branching import tossed_lineages
     from antikol.positioning.reach import state_id
     from tests._osm import FRAME, switch_fixture
@@ -143,7 +144,8 @@ def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
 
     def ask(slot_p: list[float], shown: dict, best: int = 1, lineage: int = 0) -> bool:
         log_p = np.log(np.array([slot_p]))
-        tossed = tossed_lineages(net, states, parent, log_p, ["V"], shown)
+        reports = [VehicleReport("V", 0.0, 50.06, 19.94, 5.0, 0.0)]
+        tossed = tossed_lineages(net, states, parent, log_p, np.array([0]), reports, shown)
         return bool(tossed(np.array([0]), np.array([best]), np.array([lineage]))[0])
 
     # split 50/50 without evidence, shown at the switch: a toss not shown yet

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from collections.abc import Callable, Collection, Mapping, Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -367,7 +367,8 @@ def tossed_lineages(
     states: npt.NDArray[np.int64],
     parent: npt.NDArray[np.int64],
     slot_log_p: npt.NDArray[np.float64],
-    vehicle_ids: Sequence[str],
+    rows: npt.NDArray[np.int64],
+    reports: Sequence[Any],
     reported: Mapping[str, tuple[int, int]],
 ) -> Callable[[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]],
               npt.NDArray[np.bool_]]:  # fmt: skip
@@ -389,10 +390,12 @@ def tossed_lineages(
     net : TrackMap
     states, parent : ndarray of int
         Per candidate: its track state, and the previous slot it descends from.
-    slot_log_p : ndarray of float, shape (reports, slots)
-        Each report's vehicle's slot log-probabilities before this fix (slot 0: lineage).
-    vehicle_ids : sequence of str
-        Per report: its vehicle.
+    slot_log_p : ndarray of float, shape (vehicle rows, slots)
+        The fleet's slot log-probabilities before this fix (slot 0: lineage), read only
+        when asked (most batches never ask).
+    rows : ndarray of int
+        Per report: its vehicle's row.
+    reports : sequence of VehicleReport
     reported : mapping
         The (edge, direction) each vehicle was last reported on, by vehicle id.
     """
@@ -411,8 +414,9 @@ def tossed_lineages(
         out = np.zeros(len(report), dtype=bool)
         triples = zip(report.tolist(), best.tolist(), lineage.tolist(), strict=True)
         for i, (n, b, ln) in enumerate(triples):
-            p_lineage, p_best = slot_log_p[n, 0], slot_log_p[n, parent[b]]
-            shown = reported.get(vehicle_ids[n])
+            row = rows[n]
+            p_lineage, p_best = slot_log_p[row, 0], slot_log_p[row, parent[b]]
+            shown = reported.get(reports[n].vehicle_id)
             if parent[b] < 0 or shown is None or abs(p_lineage - p_best) > _TIE:
                 continue
             ours = (int(state_edge(states[ln])), int(state_direction(states[ln])))

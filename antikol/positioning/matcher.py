@@ -603,9 +603,7 @@ class Positioner:
             switch_probability=c.switch_probability,
             standing_switch_probability=c.standing_switch_probability,
             same_way=self._siblings.asker(cs, co, reports, rows, f.hs, self._reported),
-            tossed=tossed_lineages(
-                self.net, cs, parent, f.hp[rows], [r.vehicle_id for r in reports], self._reported
-            ),
+            tossed=tossed_lineages(self.net, cs, parent, f.hp, rows, reports, self._reported),
         )
         r = rows[m_group]
         done = rows[go]
