@@ -91,10 +91,12 @@ def test_a_fleet_placed_in_arrays_is_placed_as_one_vehicle_at_a_time(busy_city, 
             continue
         limit_s = one.config.dead_reckoning_s
         for at in (None, t + 1.5, t + 7.0, t + limit_s - 0.5, t + limit_s + 0.5):
-            single = [one.position(v, at) for v in ids]
+            single = [one.placed_positions([v], at)[0] for v in ids]
             scalar_calls.clear()
-            batch = many.positions(ids, at)
+            batch = many.placed_positions(ids, at)
             assert batch == single, (t, at)
+            # and as shown (a vehicle not yet shown on a track without its edge)
+            assert many.positions(ids, at) == [one.position(v, at) for v in ids], (t, at)
             batches += 1
             matched = sum(p is not None and p.edge_id is not None for p in batch)
             # both paths are taken: most vehicles in arrays, some one at a time

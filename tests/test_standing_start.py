@@ -26,6 +26,7 @@ from tests._osm import FRAME, OsmBuilder
 SPACING_M = 3.8
 STAND_S = 40
 CONFIDENCE = PositioningConfig().confidence
+STEADY = PositioningConfig().show_after_steady_course_reports
 
 
 def _double_track(oneway: bool) -> OsmBuilder:
@@ -79,8 +80,10 @@ def _on_northbound(net: trackmap.TrackMap, pos) -> bool:
 def test_a_start_at_a_stop_takes_the_course_the_receiver_holds(double, bias_m):
     pos = Positioner(double)
     out = [(pos.update(r), y) for r, y in _start_at_a_stop(bias_m, 2.0)]
-    assert all(_on_northbound(double, p) for p, _ in out)
-    standing = [p for p, _ in out[:STAND_S]]
+    # shown on a track once the course is seen to hold, not on the first fix
+    assert all(p.unplaced and p.edge_id is None for p, _ in out[: STEADY - 1])
+    assert all(_on_northbound(double, p) for p, _ in out[STEADY - 1 :])
+    standing = [p for p, _ in out[STEADY - 1 : STAND_S]]
     # the held course is a tie-break, not a certainty: counted once, not at every fix
     assert all(p.status == "ambiguous" and p.probability < CONFIDENCE for p in standing)
     moving = [p for p, _ in out[STAND_S + 3 :]]

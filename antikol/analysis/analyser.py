@@ -454,7 +454,9 @@ class Analyser:
         self._version += 1
 
     # -- output --------------------------------------------------------------------------
-    def position(self, vehicle_id: str, t: float | None = None) -> TrackPosition | None:
+    def position(
+        self, vehicle_id: str, t: float | None = None, *, as_placed: bool = False
+    ) -> TrackPosition | None:
         """Track position of a vehicle (None without a map or for an unknown vehicle).
 
         Parameters
@@ -463,11 +465,17 @@ class Analyser:
         t : float, optional
             Time, s (default: the newest report time); later than the vehicle's last
             report means dead reckoning.
+        as_placed : bool, keyword-only
+            The position the analysis weighs: a vehicle not yet shown on a track
+            (:attr:`TrackPosition.unplaced`) where its hypotheses place it.
         """
         if self._source is None or vehicle_id not in self.table:
             return None
         self._flush()
-        return self._source.position(vehicle_id, self.table.clock if t is None else t)
+        when = self.table.clock if t is None else t
+        if as_placed:
+            return positions_of(self._source, [vehicle_id], when, as_placed=True)[0]
+        return self._source.position(vehicle_id, when)
 
     def memory(self, vehicle_id: str) -> tuple[float | None, bool | None]:
         """What the analyser remembers of one vehicle beyond its newest report: the course
@@ -718,7 +726,7 @@ class Analyser:
             raise RuntimeError("views need a map")
         self._flush()
         reports = list(self.table)
-        positions = positions_of(source, [r.vehicle_id for r in reports], now)
+        positions = positions_of(source, [r.vehicle_id for r in reports], now, as_placed=True)
         cycle = build_views(
             self.track_map,
             reports,

@@ -260,6 +260,8 @@ def build_views(
     cycle = CycleViews(t, _net=net, _branches=branches, _settings=settings)
     positions = list(positions)
     for k, pos in enumerate(positions):
+        if pos is not None and pos.unplaced:
+            positions[k] = pos = _weighed_unplaced(pos)
         if pos is not None and pos.matched and not _usable(pos):
             # a position source gave numbers that are not numbers: the sector rule judges it
             positions[k] = dataclasses.replace(pos, status="lost")
@@ -297,6 +299,20 @@ def build_views(
     for vid in _in_reach(net, cycle.views, chosen, owners):
         cycle.expand(vid)
     return cycle
+
+
+def _weighed_unplaced(pos: TrackPosition) -> TrackPosition:
+    """A vehicle not yet shown on a track, as the analysis weighs it: an ``ambiguous``
+    position at its first hypothesis (where it was last matched), the others with it."""
+    first = pos.hypotheses[0]
+    return dataclasses.replace(
+        pos,
+        status="ambiguous",
+        edge_id=first.edge_id,
+        direction=first.direction,
+        offset_m=first.offset_m,
+        wrong_way=first.wrong_way,
+    )
 
 
 def _usable(pos: TrackPosition) -> bool:

@@ -70,6 +70,20 @@ class PositioningConfig:
         two tracks of a double track at a standstill. The default floor caps it at odds of
         about 2 to 1, below ``confidence``: a double-ended tram holds its previous trip's
         course, a receiver without static hold a random one.
+    show_after_moving_reports, show_after_steady_course_reports : int
+        A vehicle that starts afresh is shown on a track once its place is
+        ``confident``, after this many reports while moving (at
+        ``start_course_max_speed_mps`` or faster), or after this many standing reports
+        whose course holds within 2 degrees (a receiver holding its last course, not a
+        random one); until then it is ``lost`` without an edge, its hypotheses given,
+        and the analysis weighs them (:mod:`antikol.positioning.showing`). Its first fix
+        cannot tell two parallel tracks apart under a street's bias: shown at once, one
+        start in four on double track jumped across when it moved off. 0 moving reports
+        shows every vehicle at once; 0 steady reports ignores the standing course.
+    show_within_reports : int
+        ... and at the latest at this report since it started afresh, whatever its
+        evidence (0: no limit): a tram standing long at its first stop with a random
+        course is shown on the likelier track.
     wrong_way_entry_log_prior : float
         Log-probability of starting to run against a one-way track (a move onto it, or the
         first fix of a vehicle): wrong-way running is rare and must be earned.
@@ -234,6 +248,9 @@ class PositioningConfig:
     start_course_max_speed_mps: float = 0.5
     start_course_sigma_deg: float = 15.0
     start_course_outlier_weight: float = 0.9
+    show_after_moving_reports: int = 2
+    show_after_steady_course_reports: int = 3
+    show_within_reports: int = 5
     wrong_way_entry_log_prior: float = math.log(1e-3)
     wrong_way_log_prior: float = -0.5
     reversal_log_prior: float = math.log(1e-4)

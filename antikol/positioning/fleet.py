@@ -43,12 +43,13 @@ VEHICLE_FIELDS = (
     "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
     "opxx", "opxy", "oscale", "bvar", "oq", "oqn", "ostep",
     "kraw", "kt", "kv", "kacc", "klow", "kn", "kmin",
+    "sm", "sc", "sn", "sa", "sp",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf", "oq", "ostep",
-    "kraw", "kt", "klow", "kmin",
+    "kraw", "kt", "klow", "kmin", "sc",
 )  # fmt: skip
 
 
@@ -170,6 +171,14 @@ class FleetState:
     klow: FloatArray = field(init=False)
     kn: FloatArray = field(init=False)
     kmin: FloatArray = field(init=False)
+    # when a vehicle that starts afresh is shown on a track (antikol.positioning.showing):
+    # moving reports, the last standing course (degrees), standing reports that held it,
+    # all reports since a fresh start, shown (1) or not (0)
+    sm: FloatArray = field(init=False)
+    sc: FloatArray = field(init=False)
+    sn: FloatArray = field(init=False)
+    sa: FloatArray = field(init=False)
+    sp: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -228,7 +237,7 @@ class FleetState:
         self.uscale[row] = self.oscale[row] = 1.0
         for name in (
             "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy", "bvar",
-            "oqn", "kv", "kacc", "kn",
+            "oqn", "kv", "kacc", "kn", "sm", "sn", "sa", "sp",
         ):  # fmt: skip
             getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0
@@ -326,6 +335,28 @@ class FleetState:
             column[[0, lead]] = column[[lead, 0]]
         return True
 
+    def pin(
+        self, row: int, t: float, state: int, offset_m: float, s_m: float, v_mps: float,
+        sigma_m: float,
+    ) -> None:  # fmt: skip
+        """Pin a vehicle to one track state (an accepted discrete fix at ``t``, s):
+        ``offset_m`` on its edge, ``s_m`` along the filter's frame, ``v_mps`` its speed,
+        ``sigma_m`` the fix's along-track uncertainty."""
+        self.hs[row] = -1
+        self.hp[row] = -math.inf
+        self.hs[row, 0] = state
+        self.ho[row, 0] = offset_m
+        self.hp[row, 0] = 0.0
+        self.hg[row, 0] = s_m
+        self.hw[row, 0] = self.he[row, 0] = 0.0
+        self.hv[row] = -1.0
+        kf = self.kf
+        kf.t[row], kf.s[row], kf.v[row] = t, s_m, v_mps
+        kf.pss[row], kf.psv[row] = sigma_m**2, 0.0
+        self.z[row] = s_m
+        self.place[row] = 1.0
+        self.lost[row] = None
+
     def row_state(self, row: int) -> dict[str, Any]:
         """One vehicle's row as a JSON-ready dict (see ``Positioner.state``)."""
         slots = np.flatnonzero(self.hs[row] >= 0)
@@ -366,6 +397,8 @@ class FleetState:
         self.gated[row] = int(data.get("gated_in_row", 0))
         self.unmatched[row] = bool(data["unmatched"])
         self.lost[row] = data["lost"]
+        if "sp" not in data["vehicle"]:  # a state saved before vehicles were shown later
+            self.sp[row] = 1.0
         lr = data["last_report"]
         self.last[row] = None if lr is None else VehicleReport(**lr)
         return m

@@ -83,6 +83,7 @@ from antikol.positioning.placing import place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
+from antikol.positioning.showing import as_shown, note_showing_evidence
 from antikol.positioning.siblings import SameWaySiblings
 from antikol.positioning.speedunits import in_recognised_units, learn_speed_units
 from antikol.report import VehicleReport
@@ -142,7 +143,8 @@ class Positioner:
         self._f = FleetState(self._k)
         self._f.grow(64)
         self._free: list[int] = list(range(63, -1, -1))
-        self._cache: dict[str, TrackPosition] = {}
+        # each vehicle's last position asked for: as placed, as shown (showing.py)
+        self._cache: dict[str, tuple[TrackPosition, TrackPosition]] = {}
         # the (edge, direction) each vehicle was last reported on: the switches behind it
         # are released (branching.hold_at_switch)
         self._reported: dict[str, tuple[int, int]] = {}
@@ -246,28 +248,29 @@ class Positioner:
             else:
                 before[vid] = where
         placed: dict[str, TrackPosition] = {}
-        for pos in self._positions_at_reports(taken):
-            placed[pos.vehicle_id] = pos
+        for pos, shown_as in self._positions_at_reports(taken):
+            placed[pos.vehicle_id] = shown_as
             if pos.edge_id is not None and pos.direction is not None:
                 reported[pos.vehicle_id] = (pos.edge_id, pos.direction)
         return placed
 
     def _positions_at_reports(
         self, taken: list[tuple[str, int, VehicleReport]]
-    ) -> list[TrackPosition]:
+    ) -> list[tuple[TrackPosition, TrackPosition]]:
         """:meth:`positions` of vehicles (each once, none cached) at the reports just
-        taken: (id, row, report) of each; the same records, without the look-ups."""
+        taken: (id, row, report) of each; as :meth:`_placed`, without the look-ups."""
         off = self._off_track([row for _, row, _ in taken])
-        out: dict[str, TrackPosition] = {}
+        out: dict[str, tuple[TrackPosition, TrackPosition]] = {}
         asked: list[tuple[str, int, float, tuple[int, int] | None]] = []
         before = self._reported_before
         for (vid, row, report), unmatched in zip(taken, off, strict=True):
             if unmatched:
-                out[vid] = self._cache[vid] = unmatched_position(report, report.t)
+                pos = unmatched_position(report, report.t)
+                out[vid] = self._cache[vid] = (pos, pos)
             else:
                 asked.append((vid, row, report.t, before.get(vid)))
-        for pos in self._placed(asked):
-            out[pos.vehicle_id] = pos
+        for pair in self._placed(asked):
+            out[pair[0].vehicle_id] = pair
         return [out[vid] for vid, _, _ in taken]
 
     def _off_track(self, rows: list[int]) -> list[bool]:
@@ -295,15 +298,26 @@ class Positioner:
         """
         return self.positions([vehicle_id], t)[0]
 
-    @gc_paused
     def positions(
         self, vehicle_ids: Sequence[str], t: float | None = None
     ) -> list[TrackPosition | None]:
         """:meth:`position` of many vehicles at once (their geometry in array calls, see
         :mod:`antikol.positioning.outputs`); ``t`` None: each at its last report, else a
         finite time, s (:class:`~antikol.errors.InvalidArgumentError` otherwise)."""
+        return [None if pair is None else pair[1] for pair in self._pairs(vehicle_ids, t)]
+
+    def placed_positions(self, vehicle_ids: Sequence[str], t: float | None = None) -> list[Any]:
+        """:meth:`positions` as placed: vehicles not yet shown on a track too (the analysis
+        weighs them, :mod:`antikol.positioning.showing`); list of TrackPosition or None."""
+        return [None if pair is None else pair[0] for pair in self._pairs(vehicle_ids, t)]
+
+    @gc_paused
+    def _pairs(
+        self, vehicle_ids: Sequence[str], t: float | None
+    ) -> list[tuple[TrackPosition, TrackPosition] | None]:
+        """Each vehicle's position as placed and as shown (see :meth:`_placed`)."""
         t = asked_time(t)
-        out: list[TrackPosition | None] = [None] * len(vehicle_ids)
+        out: list[tuple[TrackPosition, TrackPosition] | None] = [None] * len(vehicle_ids)
         where: dict[str, list[int]] = {}  # a vehicle asked twice gets one placement
         asked: list[tuple[str, int, float, tuple[int, int] | None]] = []
         for k, vid in enumerate(vehicle_ids):
@@ -313,10 +327,11 @@ class Positioner:
                 continue
             when = last.t if t is None else max(float(t), last.t)
             cached = self._cache.get(vid)
-            if cached is not None and cached.t == when:
+            if cached is not None and cached[0].t == when:
                 out[k] = cached
             elif self._off_track([row])[0]:
-                out[k] = self._cache[vid] = unmatched_position(last, when)
+                pos = unmatched_position(last, when)
+                out[k] = self._cache[vid] = (pos, pos)
             elif vid in where:
                 where[vid].append(k)
             else:
@@ -325,16 +340,17 @@ class Positioner:
                 # this one (at this report's time) or at this one (later: dead reckoning)
                 basis = (self._reported_before if when == last.t else self._reported).get(vid)
                 asked.append((vid, row, when, basis))
-        for pos in self._placed(asked):
-            for k in where[pos.vehicle_id]:
-                out[k] = pos
+        for pair in self._placed(asked):
+            for k in where[pair[0].vehicle_id]:
+                out[k] = pair
         return out
 
     def _placed(
         self, asked: list[tuple[str, int, float, tuple[int, int] | None]]
-    ) -> list[TrackPosition]:
+    ) -> list[tuple[TrackPosition, TrackPosition]]:
         """The track positions of matched vehicles, each once: (id, row, time (s), where
-        it was placed before) of each; kept in the cache."""
+        it was placed before) of each; each as placed and as shown (not yet on a track:
+        :mod:`antikol.positioning.showing`), kept in the cache."""
         if not asked:
             return []
         rows = np.array([row for _, row, _, _ in asked], dtype=np.int64)
@@ -353,9 +369,10 @@ class Positioner:
             [basis for _, _, _, basis in asked],
         )
         out = track_positions(self.net, places)
-        for pos in out:
-            self._cache[pos.vehicle_id] = pos
-        return out
+        pairs = list(zip(out, as_shown(self._f, rows, out), strict=True))
+        for pair in pairs:
+            self._cache[pair[0].vehicle_id] = pair
+        return pairs
 
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle's state (it left the vehicle table)."""
@@ -548,6 +565,8 @@ class Positioner:
         self._f.place[done] = self._place_probabilities(done)
         confident = self._f.place[done] >= c.confidence
         self._f.confident_run[done] = np.where(confident, self._f.confident_run[done] + 1, 0)
+        note_showing_evidence(self._f, done, c, fresh=fresh[go], speed_mps=speed[go],
+                              course_deg=np.array([reports[i].course_deg for i in go]))  # fmt: skip
         lost = self._f.lost
         watch = go if self.fixes.active else [i for i in go.tolist() if lost[rows[i]] is not None]
         for i in watch:
@@ -704,7 +723,6 @@ class Positioner:
             The new position (None for an unknown vehicle).
         """
         row = self._row.get(vehicle_id)
-        self._cache.pop(vehicle_id, None)
         if (
             row is None
             or self._f.last[row] is None
@@ -740,21 +758,7 @@ class Positioner:
         self, row: int, t: float, edge: int, offset: float, direction: int, s: float, v: float
     ) -> None:
         """Pin a vehicle to one track position (an accepted discrete fix)."""
-        c = self.config
-        self._f.hs[row] = -1
-        self._f.hp[row] = _NEG_INF
-        self._f.hs[row, 0] = state_id(edge, direction)
-        self._f.ho[row, 0] = offset
-        self._f.hp[row, 0] = 0.0
-        self._f.hg[row, 0] = s
-        self._f.hw[row, 0] = self._f.he[row, 0] = 0.0
-        self._f.hv[row] = -1.0
-        kf = self._f.kf
-        kf.t[row], kf.s[row], kf.v[row] = t, s, v
-        kf.pss[row], kf.psv[row], kf.pvv[row] = c.fix_sigma_m**2, 0.0, kf.pvv[row]
-        self._f.z[row] = s
-        self._f.place[row] = 1.0
-        self._f.lost[row] = None
+        self._f.pin(row, t, state_id(edge, direction), offset, s, v, self.config.fix_sigma_m)
 
     def mark_lost(self, row: int, reason: str) -> None:
         """Declare a vehicle's position lost (until relocalised)."""

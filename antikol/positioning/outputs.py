@@ -12,6 +12,7 @@ numbers, to the last bit, of one scalar call per vehicle
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -32,6 +33,7 @@ __all__ = [
     "hypotheses_of",
     "track_positions",
     "unmatched_position",
+    "unplaced_position",
 ]
 
 
@@ -152,6 +154,23 @@ def unmatched_position(report: VehicleReport, t: float) -> TrackPosition:
         speed_mps=report.speed_mps,
         probability=0.0,
         sigma_m=None,
+    )
+
+
+def unplaced_position(placed: TrackPosition, report: VehicleReport | None) -> TrackPosition:
+    """The position of a vehicle not yet shown on a track (:mod:`antikol.positioning.showing`):
+    ``lost`` without an edge, at its report's fix, its hypotheses and the numbers of its
+    place as ``placed`` has them."""
+    return dataclasses.replace(
+        placed,
+        status="lost",
+        edge_id=None,
+        direction=None,
+        offset_m=None,
+        lon=placed.lon if report is None else report.lon,
+        lat=placed.lat if report is None else report.lat,
+        heading_deg=None,
+        wrong_way=False,
     )
 
 

@@ -59,9 +59,10 @@ class TrackPosition:
         Time of the estimate, s (later than the last report when dead-reckoned).
     status : str
         ``confident``, ``ambiguous`` (several places plausible), ``lost`` (dead reckoning
-        exhausted, or contradicted by a discrete fix) or ``unmatched`` (no track nearby).
+        exhausted, or contradicted by a discrete fix; or not yet shown on a track, see
+        :attr:`unplaced`) or ``unmatched`` (no track nearby).
     edge_id, direction, offset_m
-        The most probable track position (None when unmatched).
+        The most probable track position (None when unmatched or not yet shown).
     lon, lat : float
         Degrees: the filtered track position, or the raw fix when unmatched.
     heading_deg : float or None
@@ -98,6 +99,13 @@ class TrackPosition:
     dead_reckoned_s: float = 0.0
 
     @property
+    def unplaced(self) -> bool:
+        """A vehicle that started afresh and is not yet shown on a track: its fixes cannot
+        tell the track yet (``lost`` without an edge, its hypotheses given; see
+        :mod:`antikol.positioning.showing`)."""
+        return self.status == "lost" and self.edge_id is None and bool(self.hypotheses)
+
+    @property
     def matched(self) -> bool:
         """True when confident or ambiguous (usable for track-based analysis)."""
         return self.status in ("confident", "ambiguous")
@@ -130,7 +138,9 @@ class PositionSource(Protocol):
     first and then hands the stored positions to the pairwise analysis through this hook.
     A source may also have ``positions(vehicle_ids, t)`` (many vehicles at once, as
     :meth:`Positioner.positions <antikol.positioning.matcher.Positioner.positions>`);
-    :func:`positions_of` asks ``position`` of each vehicle when it has none.
+    :func:`positions_of` asks ``position`` of each vehicle when it has none. The analysis
+    asks ``placed_positions(vehicle_ids, t)`` when the source has it (vehicles not yet
+    shown on a track too, :mod:`antikol.positioning.showing`).
     """
 
     def update_many(
@@ -143,11 +153,19 @@ class PositionSource(Protocol):
 
 
 def positions_of(
-    source: PositionSource, vehicle_ids: Sequence[str], t: float | None = None
+    source: PositionSource,
+    vehicle_ids: Sequence[str],
+    t: float | None = None,
+    *,
+    as_placed: bool = False,
 ) -> list[TrackPosition | None]:
     """The positions of many vehicles from a source: its ``positions`` when it has one,
-    else its ``position`` of each (a caller's own source may have only that)."""
-    many = getattr(source, "positions", None)
+    else its ``position`` of each (a caller's own source may have only that). With
+    ``as_placed``, its ``placed_positions`` when it has them: vehicles not yet shown on a
+    track placed where the analysis weighs them (:mod:`antikol.positioning.showing`)."""
+    many = getattr(source, "placed_positions" if as_placed else "positions", None)
+    if as_placed and not callable(many):
+        many = getattr(source, "positions", None)
     if callable(many):
         return list(many(vehicle_ids, t))
     return [source.position(v, t) for v in vehicle_ids]

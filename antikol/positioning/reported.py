@@ -216,11 +216,12 @@ class ReportedFirst:
         return self.positions([vehicle_id], t)[0]
 
     def positions(
-        self, vehicle_ids: Sequence[str], t: float | None = None
+        self, vehicle_ids: Sequence[str], t: float | None = None, *, as_placed: bool = False
     ) -> list[TrackPosition | None]:
         """:meth:`position` of many vehicles, those without a used reported position
         asked of ``inner`` together (``t``: s; a time that is not a finite number raises
-        :class:`~antikol.errors.InvalidArgumentError`)."""
+        :class:`~antikol.errors.InvalidArgumentError`); ``as_placed``: ``inner``'s as
+        placed (:meth:`placed_positions`)."""
         t = asked_time(t)
         out: list[TrackPosition | None] = [None] * len(vehicle_ids)
         matched: list[int] = []
@@ -236,10 +237,18 @@ class ReportedFirst:
             for (k, _, _), position in zip(carried, used, strict=True):
                 out[k] = position
         if matched:
-            inner = positions_of(self.inner, [vehicle_ids[k] for k in matched], t)
+            ids = [vehicle_ids[k] for k in matched]
+            inner = positions_of(self.inner, ids, t, as_placed=as_placed)
             for k, pos in zip(matched, inner, strict=True):
                 out[k] = pos
         return out
+
+    def placed_positions(
+        self, vehicle_ids: Sequence[str], t: float | None = None
+    ) -> list[TrackPosition | None]:
+        """:meth:`positions` as placed: vehicles not yet shown on a track too
+        (:mod:`antikol.positioning.showing`)."""
+        return self.positions(vehicle_ids, t, as_placed=True)
 
     def forget(self, vehicle_id: str) -> None:
         """Drop a vehicle (it left the table)."""

@@ -424,7 +424,7 @@ def position_vehicles(
         if pending and pending[-1] == k:
             pending.pop()
         for vid in main.table.vehicle_ids():
-            pos = None if track is None else track.position(vid, k * c)
+            pos = None if track is None else track.position(vid, k * c, as_placed=True)
             mem_s = sector.memory(vid) if vid in sector.table else (None, None)
             mem_t = track.memory(vid) if track is not None else (None, None)
             rows[vid].append(CycleRecord(vid, k, pos, mem_t, mem_s))
@@ -645,7 +645,7 @@ def _where(
     track: Analyser | None, own: str, t: float, newest: VehicleReport
 ) -> tuple[float, float]:
     if track is not None:
-        pos = track.position(own, t)
+        pos = track.position(own, t, as_placed=True)
         if pos is not None:
             return pos.lon, pos.lat
     return newest.lon, newest.lat
