@@ -105,6 +105,31 @@ def test_a_jump_onto_the_other_directions_track_is_seen(double):
     assert disconnected_windows(net, fixes, window_s=2.0) == (3, 1)
 
 
+@pytest.mark.parametrize("period_s", [3, 5, 10])
+def test_an_odometer_read_out_every_few_seconds_is_compared_between_read_outs(double, period_s):
+    """A counter read out every ``period_s`` s and repeated in between (from a phase off
+    the reports' seconds): compared report by report, every repeat at 10 m/s was a
+    disagreement; compared from one new reading to the next it agrees."""
+    board, net, north, _ = double
+
+    def reading(t):
+        read_out = math.floor((t - 0.4) / period_s) * period_s + 0.4
+        return 5000.0 + 10.0 * max(read_out, 0.0)
+
+    reports = [_report(board, float(t), 100.0 + 10.0 * t, odometer=reading(t)) for t in range(60)]
+    fixes = [_placed(net, r, north, 1, 100.0 + 10.0 * r.t) for r in reports]
+    check = trace_consistency(net, fixes)
+    assert check.odometer_held_vehicles == 1
+    assert check.odometer_pairs >= 60 // period_s - 2
+    assert check.odometer_agrees == check.odometer_pairs
+    assert check.odometer_rms_m < 1.0
+    # a counter read at every report is no held one
+    every = [_report(board, float(t), 100.0 + 10.0 * t, odometer=5000.0 + 10.0 * t)
+             for t in range(60)]  # fmt: skip
+    check = trace_consistency(net, [_placed(net, r, north, 1, 100.0 + 10.0 * r.t) for r in every])
+    assert check.odometer_held_vehicles == 0 and check.odometer_pairs == 59
+
+
 def test_track_distance_against_the_odometer(double):
     board, net, north, _ = double
     reports = [

@@ -194,6 +194,13 @@ def _summary(c: Any) -> list[str]:
             f"reports with a track distance within {c.odometer_tolerance_m:g} m of its "
             f"increment (RMS {c.odometer_rms_m:.2f} m; {c.odometer_unreachable:,} out of reach)"
         )
+        if c.odometer_held_vehicles:
+            lines.append(
+                f"  held odometer: {c.odometer_held_vehicles:,} of {c.vehicles:,} vehicles "
+                "repeat a reading while they move (a counter read out every few seconds, or "
+                "counting in coarse units); theirs are compared from one new reading to the "
+                "next, each as late as a report after its change"
+            )
     else:
         lines.append("odometer: none in the log")
     return lines
@@ -205,6 +212,7 @@ def _print_vehicles(checks: dict[str, Any]) -> None:
         print(
             f"{vid:<14} {c.reports:>8,} {_percent(c.way_agrees_share):>11} "
             f"{c.disconnected_windows:>6} of {c.windows:<4} {_percent(c.odometer_agrees_share):>9}"
+            + (" held" if c.odometer_held_vehicles else "")
         )
 
 

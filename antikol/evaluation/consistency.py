@@ -57,6 +57,8 @@ from antikol.report import VehicleReport
 from trackmap import TrackMap
 
 __all__ = [
+    "HELD_SHARE",
+    "HELD_SPAN_S",
     "MOVING_MPS",
     "MatchedFix",
     "Placed",
@@ -68,6 +70,11 @@ __all__ = [
 
 #: A vehicle this fast or faster is moving, m/s (its course over ground is meaningful).
 MOVING_MPS: Final = 1.0
+#: A vehicle's odometer is held between read-outs when its reading stands still over this
+#: share of its moving reports.
+HELD_SHARE: Final = 0.2
+#: Longest span between two new readings of a held odometer that are compared, s.
+HELD_SPAN_S: Final = 30.0
 _WINDOW_S: Final = 10.0
 _MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
 _REACH_MARGIN_M: Final = 30.0
@@ -223,7 +230,9 @@ class TraceConsistency:
         (:func:`disconnected_windows`).
     odometer_pairs : int
         Successive matched reports of a vehicle (at most 10 s apart) that both carry an
-        odometer reading.
+        odometer reading; for a vehicle whose counter is held between read-outs
+        (``odometer_held_vehicles``), successive reports that bring a new reading, at
+        most 30 s apart.
     odometer_agrees : int
         Of them, those whose distance along the track equals the odometer's increment
         within ``odometer_tolerance_m``.
@@ -235,6 +244,14 @@ class TraceConsistency:
         (NaN when there are none).
     odometer_tolerance_m : float
         The tolerance used, m.
+    odometer_held_vehicles : int
+        Vehicles whose odometer reading stands still over a fifth or more of their moving
+        reports: a counter read out every few seconds and repeated in between (or one
+        counting in coarse units). Compared
+        report by report, each repeat would be taken as the track distance disagreeing
+        with it; each new reading is compared with the one before it instead, so the
+        residual carries the read-outs' lag behind the reports (up to one report interval
+        of running at each end).
     """
 
     vehicles: int
@@ -255,6 +272,7 @@ class TraceConsistency:
     odometer_unreachable: int
     odometer_rms_m: float
     odometer_tolerance_m: float
+    odometer_held_vehicles: int = 0
 
     @property
     def way_agrees_share(self) -> float:
@@ -351,7 +369,7 @@ def trace_consistency(
             moving_matched += 1
             way_agrees += _runs_reported_way(net, f)
     windows, broken = disconnected_windows(net, fixes, window_s=window_s)
-    residuals, unreachable = _odometer_residuals(net, fixes, window_s, odometer_tolerance_m)
+    residuals, unreachable, held = _odometer_residuals(net, fixes, window_s, odometer_tolerance_m)
     pairs = len(residuals) + unreachable
     return TraceConsistency(
         vehicles=len({f.vehicle_id for f in fixes}),
@@ -372,6 +390,7 @@ def trace_consistency(
         odometer_unreachable=unreachable,
         odometer_rms_m=float(np.sqrt(np.mean(np.square(residuals)))) if residuals else math.nan,
         odometer_tolerance_m=odometer_tolerance_m,
+        odometer_held_vehicles=held,
     )
 
 
@@ -384,21 +403,44 @@ def _runs_reported_way(net: TrackMap, f: MatchedFix) -> bool:
     return turn < _WAY_TOLERANCE_DEG
 
 
+def _held_counter(seq: Sequence[MatchedFix]) -> bool:
+    """Whether a vehicle's odometer is read out every few seconds and repeated in between:
+    its reading stands still over at least :data:`HELD_SHARE` of the successive reports
+    at which it moves (both at :data:`MOVING_MPS` or more)."""
+    moving = still = 0
+    for p, q in itertools.pairwise(seq):
+        if p.report.speed_mps >= MOVING_MPS and q.report.speed_mps >= MOVING_MPS:
+            moving += 1
+            still += q.report.odometer_m == p.report.odometer_m
+    return moving > 0 and still >= HELD_SHARE * moving
+
+
 def _odometer_residuals(
     net: TrackMap, fixes: Sequence[MatchedFix], window_s: float, tolerance_m: float
-) -> tuple[list[float], int]:
+) -> tuple[list[float], int, int]:
     """(track distance − odometer increment) of successive matched reports of a vehicle
-    that both carry an odometer reading, and the count of those out of reach."""
+    that both carry an odometer reading, the count of those out of reach, and the number of
+    vehicles whose counter is held between read-outs (compared from one new reading to the
+    next, up to :data:`HELD_SPAN_S` apart)."""
     per: dict[str, list[MatchedFix]] = defaultdict(list)
     for f in fixes:
         if f.matched and f.report.odometer_m is not None:
             per[f.vehicle_id].append(f)
     residuals: list[float] = []
-    unreachable = 0
+    unreachable = held = 0
     for seq in per.values():
         seq.sort(key=lambda f: f.t)
+        span_s = window_s
+        if _held_counter(seq):
+            # a repeated reading is as old as the read-out: compare the reports that
+            # bring a new one (each as late as one report after its read-out, at most)
+            held += 1
+            span_s = max(window_s, HELD_SPAN_S)
+            seq = [
+                q for p, q in itertools.pairwise(seq) if q.report.odometer_m != p.report.odometer_m
+            ]
         for p, q in itertools.pairwise(seq):
-            if not 0.0 < q.t - p.t <= window_s:
+            if not 0.0 < q.t - p.t <= span_s:
                 continue
             if q.report.odometer_m is None or p.report.odometer_m is None:
                 continue  # pragma: no cover - both were kept for their readings
@@ -410,7 +452,7 @@ def _odometer_residuals(
                 unreachable += 1
             else:
                 residuals.append(along - travelled)
-    return residuals, unreachable
+    return residuals, unreachable, held
 
 
 def _place(p: Placed) -> tuple[int, float, int]:
