@@ -114,7 +114,7 @@ def test_a_placement_holds_the_fields_of_a_track_position_but_its_geometry():
 
     geometry = {"lon", "lat", "heading_deg"}
     fields = [f.name for f in dataclasses.fields(TrackPosition)]
-    assert list(Placement._fields) == [f for f in fields if f not in geometry]
+    assert list(Placement._fields) == [*(f for f in fields if f not in geometry), "held"]
     assert fields[6:9] == ["lon", "lat", "heading_deg"]
 
 

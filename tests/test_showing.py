@@ -11,6 +11,7 @@ course; the analysis weighs its hypotheses all the while, as before.
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -59,12 +60,14 @@ def _start(
 
 
 def _jumps(net, positions) -> int:
-    """Successive shown positions that no permitted route within 60 m connects."""
+    """Successive shown positions that no permitted route connects within 30 m plus
+    25 m/s of the time between them (the window rule's reach)."""
     placed = [p for p in positions if p.edge_id is not None]
     n = 0
     for p, q in itertools.pairwise(placed):
+        reach_m = 30.0 + 25.0 * (q.t - p.t)
         ahead = net.route_distance(
-            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
+            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=reach_m
         )
         back = net.route_distance(
             q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
@@ -205,6 +208,7 @@ def test_state_and_restore_keep_whether_a_vehicle_is_shown(double):
         ("show_after_moving_reports", -1),
         ("show_after_steady_course_reports", -2),
         ("show_within_reports", -1),
+        ("toss_shown_probability", 1.5),
     ],
 )
 def test_showing_settings_are_checked(name, value):
@@ -258,3 +262,80 @@ def test_a_vehicle_is_shown_exactly_when_its_evidence_since_a_fresh_start_tells(
         ever = (not fresh and ever) or confident or moving >= c.show_after_moving_reports
         ever |= len(since) >= c.show_within_reports
         assert bool(shown(fleet, rows)[0]) == ever
+
+
+@pytest.fixture(scope="module")
+def facing_switch(tmp_path_factory):
+    """A trunk running north to a facing switch at y = 500 m: branch A straight on,
+    branch B bearing away to the east (7 m off A 70 m past the switch)."""
+    b = OsmBuilder()
+    switch = b.node(0.0, 500.0)
+    b.line([(0.0, 0.0), switch], oneway="yes")
+    b.line([switch, (0.0, 1500.0)], oneway="yes")
+    b.line([switch, (10.0, 600.0), (60.0, 800.0)], oneway="yes")
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("switch") / "switch.osm"))
+
+
+def _on_branch(run_m: float, branch: str) -> tuple[float, float, float]:
+    """(x, y, course in degrees) ``run_m`` along the trunk and then branch A or B."""
+    if branch == "A" or run_m <= 500.0:
+        return 0.0, run_m, 0.0
+    legs = [((0.0, 500.0), (10.0, 600.0)), ((10.0, 600.0), (60.0, 800.0))]
+    left = run_m - 500.0
+    for (x0, y0), (x1, y1) in legs:
+        length = math.hypot(x1 - x0, y1 - y0)
+        if left <= length or (x1, y1) == legs[-1][1]:
+            f = left / length
+            course = math.degrees(math.atan2(x1 - x0, y1 - y0))
+            return x0 + f * (x1 - x0), y0 + f * (y1 - y0), course
+        left -= length
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _through_an_outage(net, seed: int, config: PositioningConfig, branch: str = "A") -> list[tuple]:
+    """A tram running on to ``branch`` at 10 m/s that loses its fix 10 m before the
+    switch for 8 s: (shown, placed, in the outage) at each report."""
+    rng = np.random.default_rng(seed)
+    pos = Positioner(net, config)
+    out, last = [], None
+    for k in range(70):
+        x, y, course = _on_branch(10.0 * k, branch)
+        outage = 49 <= k < 57
+        if not outage:
+            last = FRAME.to_lonlat(x + rng.normal(0.0, 0.7), y + rng.normal(0.0, 0.7))
+        lon, lat = last
+        report = VehicleReport(
+            "T", float(k), float(lat), float(lon), 10.0,
+            float(course + rng.normal(0.0, 1.0)) % 360.0, fix_quality=0 if outage else 1,
+        )  # fmt: skip
+        shown_as = pos.update(report)
+        out.append((shown_as, pos.placed_positions(["T"])[0], outage))
+    return out
+
+
+@pytest.mark.parametrize("branch", ["A", "B"])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_coin_toss_past_a_switch_in_an_outage_is_not_shown(facing_switch, seed, branch):
+    """Without a fix the tram's hypotheses split evenly over the branches; past the 40-m
+    hold it was shown on one of them, and moved across when the fix came back on the other
+    (``toss_shown_probability`` 0). It is not shown from there until a fix tells the
+    branch, and no shown position jumps."""
+    net = facing_switch
+    run = _through_an_outage(net, seed, PositioningConfig(), branch)
+    beyond = [(s, p) for s, p, outage in run if outage and s.edge_id != p.edge_id]
+    # the outage ran the tram 70 m past the switch: beyond the hold, a coin toss
+    assert beyond and all(s.unplaced and p.probability == pytest.approx(0.5) for s, p in beyond)
+    assert _jumps(net, [s for s, _, _ in run]) == 0
+    assert run[-1][0].status == "confident"
+    # shown as placed: on a branch at 0.5, the wrong one for some seeds
+    shown_all = _through_an_outage(net, seed, PositioningConfig(toss_shown_probability=0.0), branch)
+    assert all(s == p for s, p, _ in shown_all)
+
+
+def test_coin_tosses_shown_on_the_wrong_branch_jump_when_the_fix_comes_back(facing_switch):
+    jumps = sum(
+        _jumps(facing_switch, [s for s, _, _ in _through_an_outage(
+            facing_switch, seed, PositioningConfig(toss_shown_probability=0.0), branch)])
+        for seed in range(3) for branch in "AB"
+    )  # fmt: skip
+    assert jumps > 0

@@ -84,6 +84,12 @@ class PositioningConfig:
         ... and at the latest at this report since it started afresh, whatever its
         evidence (0: no limit): a tram standing long at its first stop with a random
         course is shown on the likelier track.
+    toss_shown_probability : float
+        A vehicle dead-reckoned from a fix at which its place held ``confidence`` to a
+        place below this probability (the branches of a facing switch it ran over in a
+        GPS outage share it evenly) is not shown on a track either, unless it is
+        reported at the switch (within 40 m of it): shown on a branch, it was moved across
+        when the fix came back on the other one. 0 shows every such coin toss.
     wrong_way_entry_log_prior : float
         Log-probability of starting to run against a one-way track (a move onto it, or the
         first fix of a vehicle): wrong-way running is rare and must be earned.
@@ -251,6 +257,7 @@ class PositioningConfig:
     show_after_moving_reports: int = 2
     show_after_steady_course_reports: int = 3
     show_within_reports: int = 5
+    toss_shown_probability: float = 0.6
     wrong_way_entry_log_prior: float = math.log(1e-3)
     wrong_way_log_prior: float = -0.5
     reversal_log_prior: float = math.log(1e-4)
@@ -329,6 +336,7 @@ class PositioningConfig:
             "standing_switch_probability",
             "outlier_weight",
             "start_course_outlier_weight",
+            "toss_shown_probability",
         ):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")

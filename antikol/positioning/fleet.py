@@ -43,7 +43,7 @@ VEHICLE_FIELDS = (
     "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
     "opxx", "opxy", "oscale", "bvar", "oq", "oqn", "ostep",
     "kraw", "kt", "kv", "kacc", "klow", "kn", "kmin",
-    "sm", "sc", "sn", "sa", "sp",
+    "sm", "sc", "sn", "sa", "sp", "pf",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
@@ -173,11 +173,13 @@ class FleetState:
     kmin: FloatArray = field(init=False)
     # when a vehicle that starts afresh is shown on a track (antikol.positioning.showing):
     # moving reports, the last standing course (degrees), standing reports that held it,
-    # all reports since a fresh start, shown (1) or not (0)
+    # all reports since a fresh start, shown (1) or not (0); the place's probability at
+    # the last fix
     sm: FloatArray = field(init=False)
     sc: FloatArray = field(init=False)
     sn: FloatArray = field(init=False)
     sa: FloatArray = field(init=False)
+    pf: FloatArray = field(init=False)
     sp: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
@@ -237,7 +239,7 @@ class FleetState:
         self.uscale[row] = self.oscale[row] = 1.0
         for name in (
             "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy", "bvar",
-            "oqn", "kv", "kacc", "kn", "sm", "sn", "sa", "sp",
+            "oqn", "kv", "kacc", "kn", "sm", "sn", "sa", "sp", "pf",
         ):  # fmt: skip
             getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0

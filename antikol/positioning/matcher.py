@@ -369,7 +369,8 @@ class Positioner:
             [basis for _, _, _, basis in asked],
         )
         out = track_positions(self.net, places)
-        pairs = list(zip(out, as_shown(self._f, rows, out), strict=True))
+        shown_as = as_shown(self._f, rows, out, self.config, [p.held for p in places])
+        pairs = list(zip(out, shown_as, strict=True))
         for pair in pairs:
             self._cache[pair[0].vehicle_id] = pair
         return pairs

@@ -39,7 +39,8 @@ __all__ = [
 
 class Placement(NamedTuple):
     """Where a matched vehicle is, before its geometry (see :class:`TrackPosition` for
-    the attributes; SI units). A named tuple: one is built per vehicle and cycle."""
+    the attributes; SI units; ``held``: reported at a switch behind it whose branch is
+    undecided). A named tuple: one is built per vehicle and cycle."""
 
     vehicle_id: str
     t: float
@@ -53,6 +54,7 @@ class Placement(NamedTuple):
     wrong_way: bool
     hypotheses: tuple[Hypothesis, ...]
     dead_reckoned_s: float
+    held: bool = False
 
 
 def track_positions(net: TrackMap, placements: Sequence[Placement]) -> list[TrackPosition]:
@@ -86,7 +88,7 @@ def track_positions(net: TrackMap, placements: Sequence[Placement]) -> list[Trac
     # keywords cost a third more per record
     return [
         TrackPosition(vid, t, status, edge, direction, off, lo, la, h, v, p, sd, ww, hyps, dr)
-        for (vid, t, status, edge, direction, off, v, p, sd, ww, hyps, dr), lo, la, h in zip(
+        for (vid, t, status, edge, direction, off, v, p, sd, ww, hyps, dr, _), lo, la, h in zip(
             placements, lons, lats, headings, strict=True
         )
     ]

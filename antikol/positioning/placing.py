@@ -268,6 +268,7 @@ def place_one(
         first.wrong_way,
         hyps,
         max(age, 0.0),
+        held is not None,
     )
 
 

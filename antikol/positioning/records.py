@@ -59,7 +59,7 @@ class TrackPosition:
         Time of the estimate, s (later than the last report when dead-reckoned).
     status : str
         ``confident``, ``ambiguous`` (several places plausible), ``lost`` (dead reckoning
-        exhausted, or contradicted by a discrete fix; or not yet shown on a track, see
+        exhausted, or contradicted by a discrete fix; or not shown on a track, see
         :attr:`unplaced`) or ``unmatched`` (no track nearby).
     edge_id, direction, offset_m
         The most probable track position (None when unmatched or not yet shown).
@@ -100,8 +100,9 @@ class TrackPosition:
 
     @property
     def unplaced(self) -> bool:
-        """A vehicle that started afresh and is not yet shown on a track: its fixes cannot
-        tell the track yet (``lost`` without an edge, its hypotheses given; see
+        """A vehicle not shown on a track because its fixes cannot tell the track: it
+        started afresh, or it ran over a switch without a fix and its branches are a coin
+        toss (``lost`` without an edge, its hypotheses given; see
         :mod:`antikol.positioning.showing`)."""
         return self.status == "lost" and self.edge_id is None and bool(self.hypotheses)
 

@@ -26,6 +26,13 @@ Until then its position is ``lost`` with no edge, its hypotheses given
 hypotheses as it weighs an ``ambiguous`` position's. Nothing of the matching changes: a
 vehicle is only shown later.
 
+The same holds for a coin toss made without a fix (:func:`tossed`): a vehicle
+dead-reckoned over a facing switch through a GPS outage splits evenly over the branches.
+Within 40 m it is reported at the switch (:func:`~antikol.positioning.branching.hold_at_switch`);
+beyond, shown on one branch, it was moved across when the fix came back on the other,
+a window no route connects. It is now not shown from there until a fix (or estimates,
+:mod:`antikol.positioning.estimates`) takes one branch to ``toss_shown_probability``.
+
 >>> import numpy as np
 >>> from antikol.positioning.fleet import FleetState
 >>> fleet = FleetState(k=4)
@@ -57,7 +64,13 @@ from antikol.positioning.fleet import BoolArray, FleetState, FloatArray, IntArra
 from antikol.positioning.outputs import unplaced_position
 from antikol.positioning.records import TrackPosition
 
-__all__ = ["STEADY_COURSE_DEG", "as_shown", "note_showing_evidence", "shown"]
+__all__ = [
+    "STEADY_COURSE_DEG",
+    "as_shown",
+    "note_showing_evidence",
+    "shown",
+    "tossed",
+]
 
 #: Largest change of a standing receiver's course between two reports that still counts
 #: as a course held, degrees (a held course repeats to the digit; a random one does not).
@@ -130,6 +143,7 @@ def note_showing_evidence(
         | ((limit > 0) & (fleet.sa[rows] >= limit))
     )
     fleet.sp[rows] = np.where(show, 1.0, fleet.sp[rows])
+    fleet.pf[rows] = place
 
 
 def shown(fleet: FleetState, rows: IntArray) -> BoolArray:
@@ -137,13 +151,35 @@ def shown(fleet: FleetState, rows: IntArray) -> BoolArray:
     return np.asarray(fleet.sp[rows] > 0.0, dtype=bool)
 
 
+def tossed(fleet: FleetState, row: int, position: TrackPosition, config: PositioningConfig) -> bool:
+    """Whether a vehicle's position is a coin toss made without a fix: dead-reckoned since
+    a fix at which its place held ``confidence`` or more, it now holds less than
+    ``toss_shown_probability`` (the branches of a switch it ran over without a fix share
+    it)."""
+    return (
+        position.dead_reckoned_s > 0.0
+        and position.probability < config.toss_shown_probability
+        and bool(fleet.pf[row] >= config.confidence)
+    )
+
+
 def as_shown(
-    fleet: FleetState, rows: IntArray, positions: Sequence[TrackPosition]
+    fleet: FleetState,
+    rows: IntArray,
+    positions: Sequence[TrackPosition],
+    config: PositioningConfig,
+    held: Sequence[bool],
 ) -> list[TrackPosition]:
-    """The positions of the vehicles of ``rows`` as shown: those not yet shown on a track
-    without their edge (:func:`~antikol.positioning.outputs.unplaced_position`)."""
+    """The positions of the vehicles of ``rows`` as shown: those not yet shown on a track,
+    and those dead-reckoned onto a coin toss (:func:`tossed`) but not ``held`` at the
+    switch behind them, without their edge
+    (:func:`~antikol.positioning.outputs.unplaced_position`)."""
     last = fleet.last
     return [
-        pos if on else unplaced_position(pos, last[row])
-        for pos, on, row in zip(positions, shown(fleet, rows).tolist(), rows.tolist(), strict=True)
+        pos
+        if on and (hold or not tossed(fleet, row, pos, config))
+        else unplaced_position(pos, last[row])
+        for pos, on, row, hold in zip(
+            positions, shown(fleet, rows).tolist(), rows.tolist(), held, strict=True
+        )
     ]
