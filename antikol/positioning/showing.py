@@ -1,4 +1,5 @@
-"""When a vehicle that starts afresh is first shown on a track.
+"""When a vehicle is shown on a track: after a fresh start, and past a switch taken
+without a fix.
 
 A vehicle's first fix tells little about which of two parallel tracks it is on: the
 fix's bias in a street is as large as the tracks' spacing, and a standing receiver's
@@ -18,8 +19,8 @@ a track only once its evidence tells the track:
   moving (the tie-break at a standing start) and not a random one;
 * at the latest at its ``show_within_reports``-th report, whatever its evidence: a tram
   standing long at its first stop with a random course is shown on the likelier track
-  after a few seconds (hidden for its whole stand it would be missing from every count of
-  where trams are, and the likelier track is right more often than not).
+  after a few seconds (hidden for its whole stand, it would be missing from every count of
+  where trams are, right or wrong).
 
 Until then its position is ``lost`` with no edge, its hypotheses given
 (:attr:`~antikol.positioning.records.TrackPosition.unplaced`); the analysis weighs those
