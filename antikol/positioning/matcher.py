@@ -103,6 +103,7 @@ logger = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 _NEG_INF = -math.inf
+Position = TrackPosition | None  # a vehicle's position (None: never seen)
 _LOG_2PI = math.log(2.0 * math.pi)
 #: From this many vehicles on, their rows are checked in array operations.
 _ARRAY_CHECKS_FROM = 16
@@ -298,17 +299,16 @@ class Positioner:
         """
         return self.positions([vehicle_id], t)[0]
 
-    def positions(
-        self, vehicle_ids: Sequence[str], t: float | None = None
-    ) -> list[TrackPosition | None]:
+    def positions(self, vehicle_ids: Sequence[str], t: float | None = None) -> list[Position]:
         """:meth:`position` of many vehicles at once (their geometry in array calls, see
         :mod:`antikol.positioning.outputs`); ``t`` None: each at its last report, else a
         finite time, s (:class:`~antikol.errors.InvalidArgumentError` otherwise)."""
         return [None if pair is None else pair[1] for pair in self._pairs(vehicle_ids, t)]
 
-    def placed_positions(self, vehicle_ids: Sequence[str], t: float | None = None) -> list[Any]:
-        """:meth:`positions` as placed: vehicles not yet shown on a track too (the analysis
-        weighs them, :mod:`antikol.positioning.showing`); list of TrackPosition or None."""
+    def placed_positions(
+        self, vehicle_ids: Sequence[str], t: float | None = None
+    ) -> list[Position]:
+        """:meth:`positions` as placed, those not shown too (:mod:`antikol.positioning.showing`)."""
         return [None if pair is None else pair[0] for pair in self._pairs(vehicle_ids, t)]
 
     @gc_paused
