@@ -8,6 +8,7 @@ construction, so a report that exists is physically plausible.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from antikol.errors import InvalidReportError
@@ -21,6 +22,7 @@ __all__ = [
     "MAX_VEHICLE_ID_BYTES",
     "ReportedTrackPosition",
     "VehicleReport",
+    "one_per_vehicle",
 ]
 
 #: Upper bound on a plausible rail vehicle speed (360 km/h); anything faster is an error.
@@ -258,3 +260,26 @@ def _check_vehicle_id(vehicle_id: object) -> None:
         raise InvalidReportError("vehicle_id", vehicle_id, "contains control characters")
     if not vehicle_id.strip():
         raise InvalidReportError("vehicle_id", vehicle_id, "blank (only spaces)")
+
+
+def one_per_vehicle(reports: Sequence[VehicleReport]) -> list[list[VehicleReport]]:
+    """Split reports into runs with at most one report per vehicle, keeping their order.
+
+    The k-th run holds each vehicle's k-th report; a batch with one report per vehicle
+    (the usual cycle) is one run.
+
+    >>> a1, b1, a2 = (VehicleReport(v, t, 50.06, 19.94, 5.0, 90.0)
+    ...               for v, t in (("A", 1.0), ("B", 1.0), ("A", 2.0)))
+    >>> [[(r.vehicle_id, r.t) for r in run] for run in one_per_vehicle([a1, b1, a2])]
+    [[('A', 1.0), ('B', 1.0)], [('A', 2.0)]]
+    """
+    if len({r.vehicle_id for r in reports}) == len(reports):
+        return [list(reports)] if reports else []
+    runs: list[list[VehicleReport]] = []
+    seen: dict[str, int] = {}
+    for r in reports:
+        k = seen[r.vehicle_id] = seen.get(r.vehicle_id, -1) + 1
+        if k == len(runs):
+            runs.append([])
+        runs[k].append(r)
+    return runs

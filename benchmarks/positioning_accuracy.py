@@ -42,7 +42,7 @@ from antikol.positioning import PositioningConfig
 from antikol.sim import GpsModel, Simulator, fleet
 
 
-def gps_models(**street: float | bool) -> dict[str, GpsModel]:
+def gps_models(**street: float | bool | str) -> dict[str, GpsModel]:
     """The receivers of the positioning benchmarks, by name (see the module); ``street``
     changes fields of the street receivers (``urban``, ``feed``, ``late``)."""
     return {
@@ -53,17 +53,21 @@ def gps_models(**street: float | bool) -> dict[str, GpsModel]:
     }
 
 
-def street_settings(settings: list[str]) -> dict[str, float | bool]:
-    """``NAME=VALUE`` settings of the street receivers (numbers, ``true`` or ``false``)."""
+def street_settings(settings: list[str]) -> dict[str, float | bool | str]:
+    """``NAME=VALUE`` settings of the street receivers (numbers, ``true`` or ``false``,
+    or words such as ``course_fault=reversed``)."""
     from antikol.sim.urban_gps import UrbanGpsModel
 
     fields = {f.name: f for f in dataclasses.fields(UrbanGpsModel)}
-    changes: dict[str, float | bool] = {}
+    changes: dict[str, float | bool | str] = {}
     for item in settings:
         name, sep, value = item.partition("=")
         if not sep or name not in fields:
             raise SystemExit(f"--gps-set {item!r}: expected NAME=VALUE with an UrbanGpsModel field")
         default = getattr(UrbanGpsModel(), name)
+        if isinstance(default, str):
+            changes[name] = value
+            continue
         if isinstance(default, bool):
             if value.lower() not in ("true", "false"):
                 raise SystemExit(f"--gps-set {item!r}: {name} is true or false")

@@ -21,7 +21,7 @@ file. These checks cannot see every error — a vehicle matched consistently ont
 track that runs its way passes them all — so they bound the failures from below.
 
 >>> from trackmap.synthetic import SyntheticNetwork
->>> from antikol.report import VehicleReport
+>>> from antikol.report import VehicleReport, one_per_vehicle
 >>> board = SyntheticNetwork()
 >>> board.track([(0.0, 0.0), (1000.0, 0.0)], oneway="yes")  # one eastbound track
 1
@@ -53,7 +53,7 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
-from antikol.report import VehicleReport
+from antikol.report import VehicleReport, one_per_vehicle
 from trackmap import TrackMap
 
 __all__ = [
@@ -184,24 +184,11 @@ def match_reports(
     pos = Positioner(net, config)
     out: list[MatchedFix] = []
     for _, batch in cycles(reports, cycle_s):
-        for one_each in _passes(batch):
+        for one_each in one_per_vehicle(batch):
             out.extend(
                 MatchedFix(r, p) for r, p in zip(one_each, pos.update_many(one_each), strict=True)
             )
     return out
-
-
-def _passes(batch: list[VehicleReport]) -> list[list[VehicleReport]]:
-    """Split a cycle's reports into runs with at most one report per vehicle, in order."""
-    passes: list[list[VehicleReport]] = []
-    count: dict[str, int] = defaultdict(int)
-    for r in batch:
-        k = count[r.vehicle_id]
-        count[r.vehicle_id] += 1
-        if k == len(passes):
-            passes.append([])
-        passes[k].append(r)
-    return passes
 
 
 @dataclass(frozen=True, slots=True)

@@ -62,6 +62,10 @@ class PositioningConfig:
         Weight of the uniform floor of the course likelihood.
     min_speed_for_course_mps : float
         Below this speed the course carries no weight, m/s, except at a standing start.
+    course_check : int
+        1: each vehicle's course is checked against the chords of its own fixes and
+        ignored while they show it wrong (a reversed, stuck or misread course field,
+        :mod:`antikol.positioning.coursecheck`); 0: every course is weighed as reported.
     start_course_max_speed_mps, start_course_sigma_deg, start_course_outlier_weight : float
         A vehicle that starts afresh below ``start_course_max_speed_mps`` (m/s) has its
         course compared once with the track's running way, at ``start_course_sigma_deg``
@@ -251,6 +255,7 @@ class PositioningConfig:
     course_noise_deg_mps: float = 20.0
     course_outlier_weight: float = 0.02
     min_speed_for_course_mps: float = 2.0
+    course_check: int = 1
     start_course_max_speed_mps: float = 0.5
     start_course_sigma_deg: float = 15.0
     start_course_outlier_weight: float = 0.9
@@ -326,6 +331,8 @@ class PositioningConfig:
         ):
             if getattr(self, name) <= 0.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be > 0")
+        if self.course_check not in (0, 1):
+            raise InvalidArgumentError("course_check", self.course_check, "must be 0 or 1")
         for name in ("max_hypotheses", "confident_after", "bias_sigma_max_factor"):
             if getattr(self, name) < 1:
                 raise InvalidArgumentError(name, getattr(self, name), "must be >= 1")

@@ -34,7 +34,7 @@ import numpy.typing as npt
 
 from antikol.positioning.fleet import FleetState
 
-__all__ = ["MAX_LATENCY_S", "learn_latency"]
+__all__ = ["MAX_LATENCY_S", "forget_latency", "learn_latency"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -116,6 +116,17 @@ def learn_latency(
         if go.any():
             _update(f, rows[go], speed_mps[go], d[go], r2[go], dt_s[go], offset_rate_m2_s)
     return np.clip(f.lt[rows], 0.0, MAX_LATENCY_S)
+
+
+def forget_latency(fleet: FleetState, rows: IntArray) -> None:
+    """Forget what the vehicles' fixes taught of their latency: back to the prior.
+
+    For vehicles whose placement is found to rest on doubted evidence: a fix on the wrong
+    one of two parallel tracks lies along it where a latency would put it, and a few such
+    fixes at changing speeds taught a tram a latency of 4 s (75 m at 19 m/s).
+    """
+    fleet.lc[rows] = fleet.lt[rows] = np.nan
+    fleet.lpcc[rows] = fleet.lpct[rows] = fleet.lptt[rows] = 0.0
 
 
 def _update(

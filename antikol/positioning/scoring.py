@@ -76,7 +76,8 @@ class Scored:
     time running wrong way (``wrong_way_s``), the state it entered its own from
     (``came_from``, a float; -1: not known) and the fix error filter's state
     (``fix_error``: the arrays named by
-    :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what happened.
+    :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what happened;
+    ``course_trusted`` (per fix) says whose course was weighed.
     """
 
     unmatched: BoolArray
@@ -96,6 +97,7 @@ class Scored:
     came_from: FloatArray
     fix_error: tuple[FloatArray, ...]
     stats: Counter[str]
+    course_trusted: BoolArray
 
 
 def score_fixes(
@@ -111,6 +113,8 @@ def score_fixes(
     odo: FloatArray,
     xs: FloatArray,
     ys: FloatArray,
+    *,
+    course_trusted: BoolArray | None = None,
 ) -> Scored:
     """Score the candidate states of one fix per vehicle (see the module).
 
@@ -130,6 +134,9 @@ def score_fixes(
         Each report's row in ``fleet``.
     t, speed, odo, xs, ys : ndarray
         Time (s), speed (m/s), odometer (m, NaN: none) and local position (m) of each.
+    course_trusted : ndarray of bool, optional
+        Whose reported course is weighed (default: every one's); the others are placed
+        as if their receivers gave no course (:mod:`antikol.positioning.coursecheck`).
 
     Returns
     -------
@@ -197,7 +204,8 @@ def score_fixes(
 
     # emission parts that do not depend on the parent: course and the wrong-way cost
     course = np.fromiter((r.course_deg for r in reports), float, n)
-    use_course = speed >= c.min_speed_for_course_mps
+    trusted = np.ones(n, bool) if course_trusted is None else course_trusted
+    use_course = (speed >= c.min_speed_for_course_mps) & trusted
     course_sigma = np.hypot(c.course_sigma_deg, c.course_noise_deg_mps / np.maximum(speed, 0.1))
     track_dir = heading + np.where(direction == 1, 0.0, 180.0)
     diff = (course[cv] - track_dir + 180.0) % 360.0 - 180.0
@@ -207,7 +215,7 @@ def score_fixes(
     # a vehicle that starts afresh at a standstill has nothing else to tell the two tracks
     # of a double track apart: the course its receiver holds (the last one measured while
     # moving) breaks the tie, once and weakly (it may be a previous trip's or random)
-    start_course = fresh & (speed < c.start_course_max_speed_mps)
+    start_course = fresh & (speed < c.start_course_max_speed_mps) & trusted
     if start_course.any():
         course_ll = np.where(
             start_course[cv],
@@ -476,6 +484,7 @@ def score_fixes(
         new_came,
         error_cols,
         stats,
+        trusted,
     )
 
 

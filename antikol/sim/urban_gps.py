@@ -52,7 +52,10 @@ from antikol.sim.truth import FixLog, Truth
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
-__all__ = ["UrbanGpsModel", "canyon_factors", "observe_urban"]
+__all__ = ["COURSE_FAULTS", "UrbanGpsModel", "canyon_factors", "course_with_fault", "observe_urban"]
+
+#: The faults of a feed's course that :class:`UrbanGpsModel` can simulate.
+COURSE_FAULTS = ("none", "reversed", "zero", "ccw_from_east")
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -106,7 +109,10 @@ class UrbanGpsModel:
     that old (rounded to whole epochs) when the report is stamped, the odometer is not (an
     AVL unit that stamps its reports when it sends them). Without ``fix_quality_field`` (an
     operator's feed, GTFS-realtime) no report carries a fix quality: those without a fix
-    repeat the last position unflagged.
+    repeat the last position unflagged. ``course_fault`` makes the reported course wrong
+    all along (:func:`course_with_fault`): a feed that sends a bidirectional vehicle's
+    heading of its other end (``"reversed"``), 0 where it has no heading (``"zero"``), or
+    a bearing counter-clockwise from east (``"ccw_from_east"``).
 
     A report without a fix may carry a position the sender estimated instead
     (``fix_quality = 6``): with ``estimates_along_route`` the last fix moved on by the
@@ -122,8 +128,10 @@ class UrbanGpsModel:
     dropout_mean_s, missing_rate, tunnel_dropout, tunnel_reacquire_s, rate_hz,
     speed_sigma_mps, course_sigma_deg, course_hold_speed_mps, course_held_at_start, odometer,
     odometer_scale_sigma, odometer_resolution_m, odometer_period_s, report_without_fix,
-    fix_quality_field, latency_s, estimates_along_route, estimates_extrapolated
-        As above (metres, seconds, Hz, probabilities, m/s, degrees).
+    fix_quality_field, latency_s, estimates_along_route, estimates_extrapolated,
+    course_fault
+        As above (metres, seconds, Hz, probabilities, m/s, degrees; ``course_fault`` one
+        of :data:`COURSE_FAULTS`).
     canyon_open, canyon_double_track : float
         Canyon factor of track without and with a parallel opposite-direction track.
     canyon_spread : float
@@ -161,6 +169,7 @@ class UrbanGpsModel:
     latency_s: float = 0.0
     estimates_along_route: bool = False
     estimates_extrapolated: bool = False
+    course_fault: str = "none"
     canyon_open: float = 0.2
     canyon_double_track: float = 0.8
     canyon_spread: float = 0.4
@@ -194,6 +203,11 @@ class UrbanGpsModel:
             isinstance(self.tail_dof, int | float) and 2.0 < self.tail_dof < math.inf
         ):
             raise ValueError(f"UrbanGpsModel.tail_dof must be > 2 or None, got {self.tail_dof!r}")
+        if self.course_fault not in COURSE_FAULTS:
+            raise ValueError(
+                f"UrbanGpsModel.course_fault must be one of {COURSE_FAULTS}, "
+                f"got {self.course_fault!r:.40}"
+            )
         if self.estimates_along_route and self.estimates_extrapolated:
             raise ValueError(
                 "UrbanGpsModel: estimates_along_route and estimates_extrapolated exclude each other"
@@ -357,6 +371,7 @@ def observe_urban(
         held_before=start_course(gps.course_held_at_start, th, ep.convergence_deg,
                                  course_sigma_deg=gps.course_sigma_deg, course_noise=z[:, 10]),
     )  # fmt: skip
+    course = course_with_fault(course, gps.course_fault)
     # odometer: distance of the front with a scale error, from a random origin
     odometer: FloatArray | None = None
     if gps.odometer and n:
@@ -434,3 +449,35 @@ def observe_urban(
         odometer_m=odometer,
     )
     return reports, log
+
+
+def course_with_fault(course_deg: FloatArray, fault: str) -> FloatArray:
+    """The course a faulty feed reports for a receiver's course.
+
+    Parameters
+    ----------
+    course_deg : ndarray of float
+        The receiver's course over ground, degrees clockwise from north.
+    fault : str
+        One of :data:`COURSE_FAULTS`: ``"none"``; ``"reversed"`` (180 degrees off, the
+        heading of a bidirectional vehicle's other end); ``"zero"`` (always 0); or
+        ``"ccw_from_east"`` (the same direction as a mathematical angle, counter-clockwise
+        from east).
+
+    Returns
+    -------
+    ndarray of float
+        Degrees in [0, 360).
+
+    >>> course_with_fault(np.array([0.0, 90.0, 200.0]), "ccw_from_east").tolist()
+    [90.0, 0.0, 250.0]
+    """
+    if fault == "none":
+        return course_deg
+    if fault == "reversed":
+        return np.asarray((course_deg + 180.0) % 360.0, dtype=float)
+    if fault == "zero":
+        return np.zeros_like(course_deg)
+    if fault == "ccw_from_east":
+        return np.asarray((90.0 - course_deg) % 360.0, dtype=float)
+    raise ValueError(f"course_fault must be one of {COURSE_FAULTS}, got {fault!r:.40}")
