@@ -293,3 +293,46 @@ def test_antikol_match_says_what_is_wrong(tmp_path, capsys):
     bad_out = tmp_path / "no-such-dir" / "positions.csv"
     assert main(["match", str(log), "-o", str(bad_out)]) == 2
     assert "no-such-dir" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("fault", ["reversed", "zero"])
+def test_a_course_unrelated_to_the_run_is_reported(double, fault):
+    """A feed whose course is reversed or stuck at 0 (on a line running north and south
+    alike) is told apart from the matching: its chords are off, vehicle by vehicle."""
+    board, net, _, _ = double
+    north = [_report(board, float(t), 100.0 + 10.0 * t, vid="N") for t in range(30)]
+    south = [
+        _report(board, float(t), 900.0 - 10.0 * t, x=0.0, course=180.0, vid="S") for t in range(30)
+    ]
+    good = trace_consistency(net, match_reports(net, north + south))
+    assert good.course_chords >= 20 and good.course_chords_off == 0
+    assert good.course_off_vehicles == 0
+    bad_course = {"reversed": lambda c: (c + 180.0) % 360.0, "zero": lambda c: 0.0}[fault]
+    faulty = [
+        VehicleReport(r.vehicle_id, r.t, r.lat, r.lon, r.speed_mps, bad_course(r.course_deg))
+        for r in north + south
+    ]
+    check = trace_consistency(net, match_reports(net, faulty))
+    assert check.course_chords == good.course_chords
+    off_vehicles = {"reversed": 2, "zero": 1}[fault]  # stuck at 0 is right running north
+    assert check.course_off_vehicles == off_vehicles
+    assert check.course_chords_off == off_vehicles * good.course_chords // 2
+    pooled = TraceConsistency.pooled([check, good])
+    assert pooled.course_off_vehicles == off_vehicles
+
+
+def test_antikol_match_says_when_the_course_is_off(kraków_run, tmp_path, capsys):
+    _, result = kraków_run
+    log = tmp_path / "hfp.jsonl"
+    reversed_course = (
+        VehicleReport(
+            r.vehicle_id, r.t, r.lat, r.lon, r.speed_mps, (r.course_deg + 180.0) % 360.0,
+            odometer_m=r.odometer_m, fix_quality=r.fix_quality,
+        )
+        for r in result.reports
+    )  # fmt: skip
+    log.write_text("\n".join(_hfp_line(r) for r in reversed_course) + "\n", encoding="utf-8")
+    assert main(["match", str(log), "-o", str(tmp_path / "positions.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "course off: 4 of 4 vehicles" in out
+    assert "chords off by 60 degrees or more" in out

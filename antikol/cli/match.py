@@ -180,6 +180,8 @@ def _percent(share: float) -> str:
 
 
 def _summary(c: Any) -> list[str]:
+    from antikol.evaluation.consistency import COURSE_OFF_DEG
+
     lines = [
         f"moving fixes on a track running the reported course's way: "
         f"{_percent(c.way_agrees_share)} ({c.moving_way_agrees:,} of {c.moving_fixes:,}; "
@@ -188,6 +190,19 @@ def _summary(c: Any) -> list[str]:
         f"10-s windows no permitted route connects: {_percent(c.disconnected_share)} "
         f"({c.disconnected_windows:,} of {c.windows:,})",
     ]
+    if c.course_chords:
+        lines.append(
+            f"reported course against the run between fixes: "
+            f"{_percent(c.course_chords_off / c.course_chords)} of {c.course_chords:,} "
+            f"chords off by {COURSE_OFF_DEG:g} degrees or more"
+        )
+        if c.course_off_vehicles:
+            lines.append(
+                f"  course off: {c.course_off_vehicles:,} of {c.vehicles:,} vehicles report a "
+                "course mostly unrelated to their run (reversed, stuck or in another "
+                "convention): positioning ignores it where the run shows it wrong, and the "
+                "course's-way share above says nothing of the matching for them"
+            )
     if c.odometer_pairs:
         lines.append(
             f"odometer: {_percent(c.odometer_agrees_share)} of {c.odometer_pairs:,} pairs of "
@@ -213,6 +228,7 @@ def _print_vehicles(checks: dict[str, Any]) -> None:
             f"{vid:<14} {c.reports:>8,} {_percent(c.way_agrees_share):>11} "
             f"{c.disconnected_windows:>6} of {c.windows:<4} {_percent(c.odometer_agrees_share):>9}"
             + (" held" if c.odometer_held_vehicles else "")
+            + (" course off" if c.course_off_vehicles else "")
         )
 
 

@@ -50,6 +50,7 @@ import numpy as np
 
 from antikol.evaluation.replay import cycles
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.coursecheck import CHORD_MAX_S, CHORD_MIN_M, CHORD_RUN_FACTOR
 from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
@@ -57,6 +58,8 @@ from antikol.report import VehicleReport, one_per_vehicle
 from trackmap import TrackMap
 
 __all__ = [
+    "COURSE_OFF_DEG",
+    "COURSE_OFF_SHARE",
     "HELD_SHARE",
     "HELD_SPAN_S",
     "MOVING_MPS",
@@ -78,8 +81,13 @@ HELD_SPAN_S: Final = 30.0
 _WINDOW_S: Final = 10.0
 _MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
 _REACH_MARGIN_M: Final = 30.0
+_COURSE_SPEED_MPS: Final = 2.0  # a course below is a held or a random one
 _STEP_BACK_M: Final = 10.0  # a filtered position may step back this much along the track
 _WAY_TOLERANCE_DEG: Final = 90.0
+#: A reported course this far off the chord between the vehicle's fixes is off, degrees.
+COURSE_OFF_DEG: Final = 60.0
+#: A vehicle whose chords are off this often (of three or more) has its course off.
+COURSE_OFF_SHARE: Final = 0.5
 
 
 class Placed(Protocol):
@@ -231,6 +239,18 @@ class TraceConsistency:
         (NaN when there are none).
     odometer_tolerance_m : float
         The tolerance used, m.
+    course_chords, course_chords_off : int
+        Chords between two fixes of a moving vehicle (at least
+        :data:`~antikol.positioning.coursecheck.CHORD_MIN_M` and at most
+        :data:`~antikol.positioning.coursecheck.CHORD_MAX_S` apart, both at 2 m/s or
+        more, the chord as long as the run of the reported speeds), and those whose
+        bearing is :data:`COURSE_OFF_DEG` or more off the mean of the courses reported at
+        their ends: a check of the feed's course field itself.
+    course_off_vehicles : int
+        Vehicles with three or more chords, :data:`COURSE_OFF_SHARE` or more of them off:
+        a course reversed, stuck or in another convention (positioning ignores a course
+        while the chords show it wrong, :mod:`antikol.positioning.coursecheck`; the
+        "course's way" share above is then no measure of the matching).
     odometer_held_vehicles : int
         Vehicles whose odometer reading stands still over a fifth or more of their moving
         reports: a counter read out every few seconds and repeated in between (or one
@@ -260,6 +280,9 @@ class TraceConsistency:
     odometer_rms_m: float
     odometer_tolerance_m: float
     odometer_held_vehicles: int = 0
+    course_chords: int = 0
+    course_chords_off: int = 0
+    course_off_vehicles: int = 0
 
     @property
     def way_agrees_share(self) -> float:
@@ -357,6 +380,7 @@ def trace_consistency(
             way_agrees += _runs_reported_way(net, f)
     windows, broken = disconnected_windows(net, fixes, window_s=window_s)
     residuals, unreachable, held = _odometer_residuals(net, fixes, window_s, odometer_tolerance_m)
+    chords, chords_off, course_off = _course_chords(net, fixes)
     pairs = len(residuals) + unreachable
     return TraceConsistency(
         vehicles=len({f.vehicle_id for f in fixes}),
@@ -378,6 +402,9 @@ def trace_consistency(
         odometer_rms_m=float(np.sqrt(np.mean(np.square(residuals)))) if residuals else math.nan,
         odometer_tolerance_m=odometer_tolerance_m,
         odometer_held_vehicles=held,
+        course_chords=chords,
+        course_chords_off=chords_off,
+        course_off_vehicles=course_off,
     )
 
 
@@ -440,6 +467,47 @@ def _odometer_residuals(
             else:
                 residuals.append(along - travelled)
     return residuals, unreachable, held
+
+
+def _course_chords(net: TrackMap, fixes: Sequence[MatchedFix]) -> tuple[int, int, int]:
+    """Chords between moving fixes of each vehicle, those whose bearing is off the mean
+    reported course, and the vehicles whose course is mostly off (see
+    :class:`TraceConsistency`)."""
+    per: dict[str, list[MatchedFix]] = defaultdict(list)
+    for f in fixes:
+        if f.has_fix and f.report.speed_mps >= _COURSE_SPEED_MPS:
+            per[f.vehicle_id].append(f)
+    chords = off = vehicles_off = 0
+    for seq in per.values():
+        seq.sort(key=lambda f: f.t)
+        x, y = net.to_local([f.report.lon for f in seq], [f.report.lat for f in seq])
+        tested = wrong = 0
+        anchor = 0
+        for k in range(1, len(seq)):
+            p, q = seq[anchor].report, seq[k].report
+            if q.t - p.t > CHORD_MAX_S:
+                anchor = k
+                continue
+            dx, dy = float(x[k] - x[anchor]), float(y[k] - y[anchor])
+            chord_m = math.hypot(dx, dy)
+            if chord_m < CHORD_MIN_M:
+                continue
+            anchor = k
+            ran_m = 0.5 * (p.speed_mps + q.speed_mps) * (q.t - p.t)
+            if not ran_m / CHORD_RUN_FACTOR <= chord_m <= CHORD_RUN_FACTOR * ran_m:
+                continue  # a bias jump or an outlier: no test
+            turn = (q.course_deg - p.course_deg + 180.0) % 360.0 - 180.0
+            if abs(turn) > 90.0:
+                continue
+            bearing = math.degrees(math.atan2(dx, dy))
+            tested += 1
+            wrong += abs((p.course_deg + 0.5 * turn - bearing + 180.0) % 360.0 - 180.0) >= (
+                COURSE_OFF_DEG
+            )
+        chords += tested
+        off += wrong
+        vehicles_off += tested >= 3 and wrong >= COURSE_OFF_SHARE * tested
+    return chords, off, vehicles_off
 
 
 def _place(p: Placed) -> tuple[int, float, int]:

@@ -72,6 +72,7 @@ __all__ = [
     "CAP_NATS",
     "CHORD_MAX_S",
     "CHORD_MIN_M",
+    "CHORD_RUN_FACTOR",
     "PRIOR_NATS",
     "believed_courses",
     "course_evidence",
