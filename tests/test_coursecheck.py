@@ -22,7 +22,7 @@ import trackmap
 from antikol.errors import InvalidArgumentError
 from antikol.evaluation.positioning_accuracy import evaluate_fixes
 from antikol.positioning import PositioningConfig
-from antikol.positioning.coursecheck import believed_courses, course_evidence
+from antikol.positioning.coursecheck import CourseUse, checked_courses, course_evidence
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.latency import forget_latency, learn_latency
 from antikol.sim import GpsModel, Simulator, fleet
@@ -46,12 +46,13 @@ def _step(
     course: float,
     config: PositioningConfig = CONFIG,
     stats: Counter[str] | None = None,
-) -> bool:
-    believed = believed_courses(
+) -> float:
+    """The course weighed for one report (NaN: none)."""
+    used = checked_courses(
         f, config, [None], np.array([0]), np.array([t]), np.array([speed]),
         np.array([x]), np.array([y]), np.array([course % 360.0]), stats,
     )  # fmt: skip
-    return bool(believed[0])
+    return float(used[0])
 
 
 def _path(speed: float, turn_deg_s: float, heading0: float, n: int) -> tuple[list, list, list]:
@@ -82,29 +83,56 @@ def test_a_right_course_is_always_believed(speed, turn, heading0, bias, seed):
     xs, ys, hs = _path(speed, turn, heading0, 60)
     for k, (x, y, h) in enumerate(zip(xs, ys, hs, strict=True)):
         nx, ny = rng.uniform(-1.5, 1.5, 2)
-        course = h + rng.uniform(-4.0, 4.0)
-        assert _step(f, float(k), speed, x + bias[0] + nx, y + bias[1] + ny, course)
+        course = (h + rng.uniform(-4.0, 4.0)) % 360.0
+        assert _step(f, float(k), speed, x + bias[0] + nx, y + bias[1] + ny, course) == course
     assert f.qe[0] > 0.0  # the chords were tested, and agreed
 
 
 @pytest.mark.parametrize("fault", ["reversed", "zero", "ccw_from_east"])
 @pytest.mark.parametrize("heading", [100.0, 200.0, 290.0])
-def test_a_wrong_course_is_ignored_within_60_m(fault, heading):
+def test_a_wrong_course_is_ignored_within_60_m_and_a_reversed_one_turned(fault, heading):
     f = _row()
     f.hs[0, 0] = 7  # a placement made with the course
     xs, ys, hs = _path(10.0, 0.0, heading, 30)
     courses = course_with_fault(np.array(hs) % 360.0, fault)
     stats: Counter[str] = Counter()
-    believed = [
+    used = [
         _step(f, float(k), 10.0, x, y, c, stats=stats)
         for k, (x, y, c) in enumerate(zip(xs, ys, courses, strict=True))
     ]
-    first = believed.index(False)
+    first = next(k for k, (u, c) in enumerate(zip(used, courses, strict=True)) if u != c)
     assert 10.0 * first <= 60.0
-    assert not any(believed[first:])
+    assert math.isnan(used[first])
     assert f.hs[0, 0] == -1  # started afresh without the course's evidence
     assert stats["course_doubted"] == 1
-    assert stats["course_ignored"] == len(believed) - first
+    if fault == "reversed":  # turned round from the next chord: the right course again
+        turned = next(k for k in range(first, len(used)) if not math.isnan(used[k]))
+        assert 10.0 * (turned - first) <= 30.0
+        assert used[turned:] == pytest.approx([heading] * (len(used) - turned))
+        assert f.qn[0] == CourseUse.TURNED
+    else:  # ignored, or turned round where that comes near (stuck at 0 running 200)
+        assert all(
+            math.isnan(u) or abs((u - heading + 180.0) % 360.0 - 180.0) <= 30.0
+            for u in used[first:]
+        )
+    assert stats["course_ignored"] + stats["course_turned"] == len(used) - first
+
+
+def test_a_bidirectional_trams_course_is_followed_through_each_change_of_end():
+    # driven from its front (right), from its other end (reversed), from its front again
+    f = _row()
+    stats: Counter[str] = Counter()
+    legs = [(0.0, 0.0), (180.0, 0.0), (0.0, 0.0)]  # course offset, per leg of 40 s east
+    used = []
+    for leg, (offset, _) in enumerate(legs):
+        f.hs[0, 0] = 7
+        for k in range(40):
+            t = 100.0 * leg + k  # a layover of 60 s between the legs
+            used.append(_step(f, t, 10.0, 10.0 * (40 * leg + k), 0.0, 90.0 + offset, stats=stats))
+        assert used[-1] == 90.0  # the right course, after each change
+    assert stats["course_doubted"] == 2  # the right course, then the turned one, ended
+    assert sum(math.isnan(u) for u in used) <= 6  # a chord or two each change
+    assert f.qn[0] == CourseUse.BELIEVED
 
 
 def test_a_standing_receivers_course_is_no_test():
@@ -113,7 +141,8 @@ def test_a_standing_receivers_course_is_no_test():
     f = _row()
     for k in range(200):
         x, y = rng.normal(0.0, 12.0, 2)
-        assert _step(f, float(k), 0.2, x, y, rng.uniform(0.0, 360.0))
+        course = rng.uniform(0.0, 360.0)
+        assert _step(f, float(k), 0.2, x, y, course) == course
     assert f.qe[0] == 0.0
 
 
@@ -122,19 +151,19 @@ def test_a_course_right_on_some_headings_is_believed_there_and_restarts_once():
     f = _row()
     f.hs[0, 0] = 7
     east = [_step(f, float(k), 10.0, 10.0 * k, 0.0, 0.0) for k in range(20)]
-    assert not east[-1] and f.hs[0, 0] == -1
+    assert math.isnan(east[-1]) and f.hs[0, 0] == -1
     f.hs[0, 0] = 7
     north = [_step(f, 20.0 + k, 10.0, 200.0, 10.0 * k, 0.0) for k in range(40)]
-    assert north[-1]  # believed again where it agrees
+    assert north[-1] == 0.0  # believed again where it agrees
     again = [_step(f, 60.0 + k, 10.0, 200.0 + 10.0 * k, 400.0, 0.0) for k in range(20)]
-    assert not again[-1]
+    assert math.isnan(again[-1])
     assert f.hs[0, 0] == 7  # doubted again: no second restart
 
 
 def test_the_check_can_be_switched_off():
     f = _row()
     off = PositioningConfig(course_check=0)
-    assert all(_step(f, float(k), 10.0, 10.0 * k, 0.0, 270.0, off) for k in range(30))
+    assert all(_step(f, float(k), 10.0, 10.0 * k, 0.0, 270.0, off) == 270.0 for k in range(30))
     assert math.isnan(f.qt[0])
     with pytest.raises(InvalidArgumentError, match="course_check"):
         PositioningConfig(course_check=2)
@@ -207,3 +236,21 @@ def test_a_right_course_changes_nothing(krakow):
     checked = _double_track_right(krakow, "none", 1, check=1)
     assert checked == _double_track_right(krakow, "none", 1, check=0)
     assert checked[0] == 1.0
+
+
+def test_antikol_simulate_writes_a_faulty_course(tmp_path, capsys):
+    from antikol.cli import main
+    from antikol.ingest.replaylog import read_replay_csv
+
+    base = ["simulate", "--trams", "2", "--minutes", "1", "--gps", "urban", "--seed", "3"]
+    good, bad = tmp_path / "good.csv", tmp_path / "reversed.csv"
+    assert main([*base, "-o", str(good)]) == 0
+    assert main([*base, "--course-fault", "reversed", "-o", str(bad)]) == 0
+    pairs = list(zip(read_replay_csv(good).reports, read_replay_csv(bad).reports, strict=True))
+    assert pairs and all(
+        abs((b.course_deg - a.course_deg) % 360.0 - 180.0) < 1e-6
+        and (a.lat, a.lon) == (b.lat, b.lon)
+        for a, b in pairs
+    )
+    assert main(["simulate", "--course-fault", "zero", "-o", str(tmp_path / "x.csv")]) == 2
+    assert "--gps urban" in capsys.readouterr().err

@@ -40,6 +40,14 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
         "'urban' (multipath bias worst on double track, jumps, heavy tails, outages, "
         "odometer; GpsModel.urban())",
     )
+    p.add_argument(
+        "--course-fault",
+        choices=("none", "reversed", "zero", "ccw_from_east"),
+        default="none",
+        help="with --gps urban: a course field wrong all along, as some feeds send it "
+        "(reversed: a bidirectional tram's other end; zero: 0 for no heading; "
+        "ccw_from_east: a mathematical angle) (default none)",
+    )
 
 
 def add_parsers(sub: Any) -> None:
@@ -128,9 +136,13 @@ def _build(name: str, net: Any, args: argparse.Namespace) -> Any:
     from antikol.evaluation.scenarios import build_scenario
     from antikol.sim import GpsModel
 
+    fault = getattr(args, "course_fault", "none")
+    urban = getattr(args, "gps", "white") == "urban"
+    if fault != "none" and not urban:
+        raise UsageError("--course-fault needs the street receiver (--gps urban)")
     scn = build_scenario(name, net, **_params(name, args))
-    if getattr(args, "gps", "white") == "urban":
-        scn = dataclasses.replace(scn, gps=GpsModel.urban())
+    if urban:
+        scn = dataclasses.replace(scn, gps=GpsModel.urban(course_fault=fault))
     return scn
 
 

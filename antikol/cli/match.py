@@ -200,8 +200,9 @@ def _summary(c: Any) -> list[str]:
             lines.append(
                 f"  course off: {c.course_off_vehicles:,} of {c.vehicles:,} vehicles report a "
                 "course mostly unrelated to their run (reversed, stuck or in another "
-                "convention): positioning ignores it where the run shows it wrong, and the "
-                "course's-way share above says nothing of the matching for them"
+                "convention): positioning ignores it, or turns a reversed one round, where "
+                "the run shows it wrong, and the course's-way share above says nothing of "
+                "the matching for them"
             )
     if c.odometer_pairs:
         lines.append(

@@ -248,8 +248,9 @@ class TraceConsistency:
         their ends: a check of the feed's course field itself.
     course_off_vehicles : int
         Vehicles with three or more chords, :data:`COURSE_OFF_SHARE` or more of them off:
-        a course reversed, stuck or in another convention (positioning ignores a course
-        while the chords show it wrong, :mod:`antikol.positioning.coursecheck`; the
+        a course reversed, stuck or in another convention (positioning ignores a course,
+        or turns a reversed one round, while the chords show it wrong,
+        :mod:`antikol.positioning.coursecheck`; the
         "course's way" share above is then no measure of the matching).
     odometer_held_vehicles : int
         Vehicles whose odometer reading stands still over a fifth or more of their moving

@@ -44,7 +44,7 @@ VEHICLE_FIELDS = (
     "opxx", "opxy", "oscale", "bvar", "oq", "oqn", "ostep",
     "kraw", "kt", "kv", "kacc", "klow", "kn", "kmin",
     "sm", "sc", "sn", "sa", "sp", "pf",
-    "qx", "qy", "qt", "qv", "qc", "qe", "qn",
+    "qx", "qy", "qt", "qv", "qc", "qe", "qr", "qn",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
@@ -184,14 +184,15 @@ class FleetState:
     sp: FloatArray = field(init=False)
     # whether its reported course is believed (antikol.positioning.coursecheck): the
     # anchor fix of the next chord (local position, m, time, s, speed, m/s, course,
-    # degrees), the evidence for a right course beyond its prior (nats), and whether the
-    # course is ignored (1), was once (2) or never was (0)
+    # degrees), the evidence for a right and for a reversed course beyond their priors
+    # (nats), and how the course is weighed (coursecheck.CourseUse)
     qx: FloatArray = field(init=False)
     qy: FloatArray = field(init=False)
     qt: FloatArray = field(init=False)
     qv: FloatArray = field(init=False)
     qc: FloatArray = field(init=False)
     qe: FloatArray = field(init=False)
+    qr: FloatArray = field(init=False)
     qn: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
@@ -251,7 +252,7 @@ class FleetState:
         self.uscale[row] = self.oscale[row] = 1.0
         for name in (
             "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy", "opxx", "opxy", "bvar",
-            "oqn", "kv", "kacc", "kn", "sm", "sn", "sa", "sp", "pf", "qe", "qn",
+            "oqn", "kv", "kacc", "kn", "sm", "sn", "sa", "sp", "pf", "qe", "qr", "qn",
         ):  # fmt: skip
             getattr(self, name)[row] = 0.0
         self.lpcc[row] = self.lpct[row] = self.lptt[row] = 0.0

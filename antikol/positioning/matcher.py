@@ -61,7 +61,7 @@ from antikol.positioning.biasscale import learn_bias_sigma
 from antikol.positioning.branching import Arrivals, tossed_lineages
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
-from antikol.positioning.coursecheck import believed_courses
+from antikol.positioning.coursecheck import checked_courses
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
 from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.feedfaults import stale_fixes, unusable_odometers
@@ -473,13 +473,13 @@ class Positioner:
         def find(x: FloatArray, y: FloatArray, radius: FloatArray) -> Candidates:
             return find_candidates(self.net, self._loops, x, y, radius)
 
-        # a course that the run between the vehicle's own fixes shows wrong is not weighed
+        # a course the run between the vehicle's own fixes shows wrong: ignored or turned round
         course = np.fromiter((r.course_deg for r in reports), float, len(reports))
-        believed = believed_courses(self._f, self.config, reports, rows, t, speed, xs, ys,
-                                    course, self.stats)  # fmt: skip
+        course = checked_courses(self._f, self.config, reports, rows, t, speed, xs, ys,
+                                 course, self.stats)  # fmt: skip
         scored = score_fixes(self._f, self.reach, self.config, find, self.reach.headings.at,
                              reports, rows, t, speed, odo, xs, ys,
-                             course_trusted=believed)  # fmt: skip
+                             course_deg=course)  # fmt: skip
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected
         out = scored.stuck
@@ -563,9 +563,8 @@ class Positioner:
         self._f.place[done] = self._place_probabilities(done)
         confident = self._f.place[done] >= c.confidence
         self._f.confident_run[done] = np.where(confident, self._f.confident_run[done] + 1, 0)
-        course = np.where(scored.course_trusted[go], [reports[i].course_deg for i in go], math.nan)
         note_showing_evidence(self._f, done, c, fresh=fresh[go], speed_mps=speed[go],
-                              course_deg=course)  # fmt: skip
+                              course_deg=scored.course_deg[go])  # fmt: skip
         lost = self._f.lost
         watch = go if self.fixes.active else [i for i in go.tolist() if lost[rows[i]] is not None]
         for i in watch:

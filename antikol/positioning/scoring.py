@@ -77,7 +77,7 @@ class Scored:
     (``came_from``, a float; -1: not known) and the fix error filter's state
     (``fix_error``: the arrays named by
     :data:`~antikol.positioning.fixerror.FIX_ERROR_FIELDS`). ``stats`` counts what happened;
-    ``course_trusted`` (per fix) says whose course was weighed.
+    ``course_deg`` (per fix) is the course weighed, degrees (NaN: none).
     """
 
     unmatched: BoolArray
@@ -97,7 +97,7 @@ class Scored:
     came_from: FloatArray
     fix_error: tuple[FloatArray, ...]
     stats: Counter[str]
-    course_trusted: BoolArray
+    course_deg: FloatArray
 
 
 def score_fixes(
@@ -114,7 +114,7 @@ def score_fixes(
     xs: FloatArray,
     ys: FloatArray,
     *,
-    course_trusted: BoolArray | None = None,
+    course_deg: FloatArray | None = None,
 ) -> Scored:
     """Score the candidate states of one fix per vehicle (see the module).
 
@@ -134,9 +134,9 @@ def score_fixes(
         Each report's row in ``fleet``.
     t, speed, odo, xs, ys : ndarray
         Time (s), speed (m/s), odometer (m, NaN: none) and local position (m) of each.
-    course_trusted : ndarray of bool, optional
-        Whose reported course is weighed (default: every one's); the others are placed
-        as if their receivers gave no course (:mod:`antikol.positioning.coursecheck`).
+    course_deg : ndarray of float, optional
+        The course to weigh of each, degrees (default: as reported); NaN: the vehicle is
+        placed as if its receiver gave none (:mod:`antikol.positioning.coursecheck`).
 
     Returns
     -------
@@ -203,8 +203,10 @@ def score_fixes(
     unmatched = counts == 0
 
     # emission parts that do not depend on the parent: course and the wrong-way cost
-    course = np.fromiter((r.course_deg for r in reports), float, n)
-    trusted = np.ones(n, bool) if course_trusted is None else course_trusted
+    if course_deg is None:
+        course_deg = np.fromiter((r.course_deg for r in reports), float, n)
+    trusted = np.isfinite(course_deg)
+    course = np.where(trusted, course_deg, 0.0)
     use_course = (speed >= c.min_speed_for_course_mps) & trusted
     course_sigma = np.hypot(c.course_sigma_deg, c.course_noise_deg_mps / np.maximum(speed, 0.1))
     track_dir = heading + np.where(direction == 1, 0.0, 180.0)
@@ -484,7 +486,7 @@ def score_fixes(
         new_came,
         error_cols,
         stats,
-        trusted,
+        np.where(trusted, course, np.nan),
     )
 
 
