@@ -214,51 +214,78 @@ def checked_courses(
     chord_m = np.hypot(dx, dy)
     renew = ~(age <= CHORD_MAX_S) | (age < 0.0)  # also NaN: no anchor yet
     ready = ~renew & (chord_m >= CHORD_MIN_M)
-    ran_m = 0.5 * (f.qv[rows] + speed_mps) * np.where(renew, 0.0, age)
+    if ready.any():
+        at = np.flatnonzero(ready)
+        _test_chords(f, config, [reports[i] for i in at.tolist()], rows[at], speed_mps[at],
+                     course_deg[at], age[at], dx[at], dy[at], stats)  # fmt: skip
+    # a standing receiver's fix is no anchor: the chord starts at the first moving one
+    move = renew | ready | (f.qv[rows] < config.min_speed_for_course_mps)
+    if move.any():
+        moved = rows[move]
+        f.qx[moved], f.qy[moved], f.qt[moved] = x_m[move], y_m[move], t[move]
+        f.qv[moved], f.qc[moved] = speed_mps[move], course_deg[move]
+    use = f.qn[rows]
+    ignored, turned = use == CourseUse.IGNORED, use == CourseUse.TURNED
+    if not (ignored.any() or turned.any()):  # (the usual case: every course as reported)
+        return course_deg
+    if stats is not None:
+        for name, which in (("course_ignored", ignored), ("course_turned", turned)):
+            if which.any():
+                stats[name] += int(np.count_nonzero(which))
+    return np.where(ignored, np.nan, np.where(turned, (course_deg + 180.0) % 360.0, course_deg))
+
+
+def _test_chords(
+    f: FleetState,
+    config: PositioningConfig,
+    reports: Sequence[VehicleReport | None],
+    rows: IntArray,
+    speed_mps: FloatArray,
+    course_deg: FloatArray,
+    age_s: FloatArray,
+    dx: FloatArray,
+    dy: FloatArray,
+    stats: Counter[str] | None,
+) -> None:
+    """Test the chords of the reports of vehicles ``rows`` (each chord at least
+    :data:`CHORD_MIN_M` long: the fix is ``dx``, ``dy`` m east and north of the anchor fix
+    taken ``age_s`` s before); update their evidence and their :class:`CourseUse` (a use
+    only changes with its evidence)."""
+    chord_m = np.hypot(dx, dy)
+    ran_m = 0.5 * (f.qv[rows] + speed_mps) * age_s
     end_turn = _turn(course_deg, f.qc[rows])
-    moving = np.minimum(f.qv[rows], speed_mps) >= config.min_speed_for_course_mps
     test = (
-        ready
-        & moving
+        (np.minimum(f.qv[rows], speed_mps) >= config.min_speed_for_course_mps)
         & (chord_m <= CHORD_RUN_FACTOR * ran_m)
         & (chord_m >= ran_m / CHORD_RUN_FACTOR)
         & (np.abs(end_turn) <= MAX_END_TURN_DEG)
     )
-    if test.any():
-        white_m = np.array([_white_m(config, r) for r in reports])
-        mean_speed = np.maximum(0.5 * (f.qv[rows] + speed_mps), 0.1)
-        sigma_deg = np.hypot(
-            np.degrees(math.sqrt(2.0) * white_m / np.maximum(chord_m, CHORD_MIN_M)),
-            np.hypot(config.course_sigma_deg, config.course_noise_deg_mps / mean_speed),
-        )
-        off = np.abs(_turn(f.qc[rows] + 0.5 * end_turn, np.degrees(np.arctan2(dx, dy))))
-        for name, prior, off_deg in (
-            ("qe", PRIOR_NATS, off),
-            ("qr", REVERSED_PRIOR_NATS, 180.0 - off),
-        ):
-            gained = np.where(test, course_evidence(off_deg, sigma_deg), 0.0)
-            held = prior + getattr(f, name)[rows] + gained
-            getattr(f, name)[rows] = np.clip(held, -CAP_NATS, CAP_NATS) - prior
+    if not test.any():
+        return
+    rows, chord_m, end_turn = rows[test], chord_m[test], end_turn[test]
+    mean_speed = np.maximum(0.5 * (f.qv[rows] + speed_mps[test]), 0.1)
+    picked = np.flatnonzero(test).tolist()
+    white_m = np.array([_white_m(config, reports[i]) for i in picked])
+    sigma_deg = np.hypot(
+        np.degrees(math.sqrt(2.0) * white_m / chord_m),
+        np.hypot(config.course_sigma_deg, config.course_noise_deg_mps / mean_speed),
+    )
+    bearing = np.degrees(np.arctan2(dx[test], dy[test]))
+    off = np.abs(_turn(f.qc[rows] + 0.5 * end_turn, bearing))
+    for name, prior, off_deg in (("qe", PRIOR_NATS, off), ("qr", REVERSED_PRIOR_NATS, 180.0 - off)):
+        held = prior + getattr(f, name)[rows] + course_evidence(off_deg, sigma_deg)
+        getattr(f, name)[rows] = np.clip(held, -CAP_NATS, CAP_NATS) - prior
     before = f.qn[rows].astype(np.int64)
     use = _course_use(before, PRIOR_NATS + f.qe[rows], REVERSED_PRIOR_NATS + f.qr[rows])
     f.qn[rows] = use
     # a trusted course that ends (the first doubt of one, or a turned-round one) leaves
     # hypotheses weighed with it: start afresh
-    ended = (use != before) & np.isin(before, (CourseUse.UNTESTED, CourseUse.TURNED))
-    f.hs[rows[ended]] = -1
-    forget_latency(f, rows[ended])
-    ignored, turned = use == CourseUse.IGNORED, use == CourseUse.TURNED
-    if stats is not None:
-        for name, which in (("course_ignored", ignored), ("course_turned", turned),
-                            ("course_doubted", ended)):  # fmt: skip
-            if which.any():
-                stats[name] += int(np.count_nonzero(which))
-    # a standing receiver's fix is no anchor: the chord starts at the first moving one
-    move = renew | ready | (f.qv[rows] < config.min_speed_for_course_mps)
-    moved = rows[move]
-    f.qx[moved], f.qy[moved], f.qt[moved] = x_m[move], y_m[move], t[move]
-    f.qv[moved], f.qc[moved] = speed_mps[move], course_deg[move]
-    return np.where(ignored, np.nan, np.where(turned, (course_deg + 180.0) % 360.0, course_deg))
+    ended = rows[(use != before) & np.isin(before, (CourseUse.UNTESTED, CourseUse.TURNED))]
+    if len(ended):
+        f.hs[ended] = -1
+        forget_latency(f, ended)
+        if stats is not None:
+            stats["course_doubted"] += len(ended)
 
 
 def _course_use(before: IntArray, right: FloatArray, reversed_: FloatArray) -> IntArray:
