@@ -24,7 +24,7 @@ from antikol.errors import InvalidArgumentError
 from antikol.positioning import PositioningConfig
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.matcher import Positioner
-from antikol.positioning.showing import note_showing_evidence, shown
+from antikol.positioning.showing import MOVING_EXTRA_REPORTS, note_showing_evidence, shown
 from tests._osm import FRAME, OsmBuilder
 
 SPACING_M = 3.8
@@ -209,6 +209,7 @@ def test_state_and_restore_keep_whether_a_vehicle_is_shown(double):
         ("show_after_steady_course_reports", -2),
         ("show_within_reports", -1),
         ("toss_shown_probability", 1.5),
+        ("show_moving_probability", -0.1),
     ],
 )
 def test_showing_settings_are_checked(name, value):
@@ -259,8 +260,14 @@ def test_a_vehicle_is_shown_exactly_when_its_evidence_since_a_fresh_start_tells(
             )
             steady = steady + 1 if held else (1 if standing else 0)
             confident |= steady >= c.show_after_steady_course_reports
-        ever = (not fresh and ever) or confident or moving >= c.show_after_moving_reports
-        ever |= len(since) >= c.show_within_reports
+        now_moving = not since[-1][0] < c.start_course_max_speed_mps
+        ever = (
+            (not fresh and ever)
+            or confident
+            or (moving >= c.show_after_moving_reports and place >= c.show_moving_probability)
+        )
+        limit = c.show_within_reports + (MOVING_EXTRA_REPORTS if now_moving else 0)
+        ever |= len(since) >= limit
         assert bool(shown(fleet, rows)[0]) == ever
 
 

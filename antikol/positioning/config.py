@@ -84,10 +84,17 @@ class PositioningConfig:
         cannot tell two parallel tracks apart under a street's bias: shown at once, one
         start in four on double track jumped across when it moved off. 0 moving reports
         shows every vehicle at once; 0 steady reports ignores the standing course.
+    show_moving_probability : float
+        The moving reports show a vehicle only once its place holds this probability:
+        the course does not tell two tracks running the same way apart (a tram that
+        started beside a parallel track of its own direction, with a 7-m bias towards it,
+        was shown there at 0.60 and moved across three fixes later). 0: the moving
+        reports alone show it.
     show_within_reports : int
         ... and at the latest at this report since it started afresh, whatever its
         evidence (0: no limit): a tram standing long at its first stop with a random
-        course is shown on the likelier track.
+        course is shown on the likelier track; one moving at that report, while its place
+        is below ``show_moving_probability``, two reports later.
     toss_shown_probability : float
         A vehicle dead-reckoned from a fix at which its place held ``confidence`` to a
         place below this probability (the branches of a facing switch it ran over in a
@@ -262,6 +269,7 @@ class PositioningConfig:
     show_after_moving_reports: int = 2
     show_after_steady_course_reports: int = 3
     show_within_reports: int = 5
+    show_moving_probability: float = 0.8
     toss_shown_probability: float = 0.6
     wrong_way_entry_log_prior: float = math.log(1e-3)
     wrong_way_log_prior: float = -0.5
@@ -344,6 +352,7 @@ class PositioningConfig:
             "outlier_weight",
             "start_course_outlier_weight",
             "toss_shown_probability",
+            "show_moving_probability",
         ):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")

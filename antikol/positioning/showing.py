@@ -12,15 +12,17 @@ a track only once its evidence tells the track:
 * its place is ``confident`` (it reaches ``confidence`` at ``confident_after`` fixes in a
   row, or ``sure_probability``);
 * it sent ``show_after_moving_reports`` reports while moving (at
-  ``start_course_max_speed_mps`` or faster, or without a speed): the course and the run
-  between fixes count from the second;
+  ``start_course_max_speed_mps`` or faster, or without a speed) and its place holds
+  ``show_moving_probability``: the course and the run between fixes count from the
+  second, but they do not tell apart two tracks running the same way;
 * it sent ``show_after_steady_course_reports`` standing reports whose course holds within
   :data:`STEADY_COURSE_DEG`: a receiver that holds the course it last measured while
   moving (the tie-break at a standing start) and not a random one;
 * at the latest at its ``show_within_reports``-th report, whatever its evidence: a tram
   standing long at its first stop with a random course is shown on the likelier track
   after a few seconds (hidden for its whole stand, it would be missing from every count of
-  where trams are, right or wrong).
+  where trams are, right or wrong); a tram moving at that report, :data:`MOVING_EXTRA_REPORTS`
+  reports later.
 
 Until then its position is ``lost`` with no edge, its hypotheses given
 (:attr:`~antikol.positioning.records.TrackPosition.unplaced`); the analysis weighs those
@@ -40,8 +42,8 @@ a window no route connects. It is now not shown from there until a fix (or estim
 >>> fleet.grow(1)
 >>> rows = np.array([0])
 >>> from antikol.positioning import PositioningConfig
->>> def report(speed, course, fresh=False):
-...     fleet.place[0] = 0.6  # ambiguous
+>>> def report(speed, course, fresh=False, place=0.85):  # ambiguous
+...     fleet.place[0] = place
 ...     note_showing_evidence(
 ...         fleet, rows, PositioningConfig(), fresh=np.array([fresh]),
 ...         speed_mps=np.array([speed]), course_deg=np.array([course]))
@@ -52,6 +54,8 @@ a window no route connects. It is now not shown from there until a fix (or estim
 (False, False, True)
 >>> [report(0.0, 90.0 * k, fresh=k == 0) for k in range(5)]
 [False, False, False, False, True]
+>>> [report(8.0, 90.0, fresh=k == 0, place=0.6) for k in range(7)]  # which of two?
+[False, False, False, False, False, False, True]
 """
 
 from __future__ import annotations
@@ -66,12 +70,17 @@ from antikol.positioning.outputs import unplaced_position
 from antikol.positioning.records import TrackPosition
 
 __all__ = [
+    "MOVING_EXTRA_REPORTS",
     "STEADY_COURSE_DEG",
     "as_shown",
     "note_showing_evidence",
     "shown",
     "tossed",
 ]
+
+#: Reports a vehicle moving at its ``show_within_reports``-th report may stay hidden
+#: beyond it, while its place is below ``show_moving_probability``.
+MOVING_EXTRA_REPORTS = 2
 
 #: Largest change of a standing receiver's course between two reports that still counts
 #: as a course held, degrees (a held course repeats to the digit; a random one does not).
@@ -101,7 +110,7 @@ def note_showing_evidence(
     config : PositioningConfig
         ``confidence``, ``confident_after``, ``sure_probability``,
         ``start_course_max_speed_mps`` (from this speed on a report counts
-        as moving, m/s), ``show_after_moving_reports``,
+        as moving, m/s), ``show_after_moving_reports``, ``show_moving_probability``,
         ``show_after_steady_course_reports`` and ``show_within_reports``.
     fresh : ndarray of bool
         The fix starts the vehicle afresh: what was counted before is void.
@@ -139,9 +148,9 @@ def note_showing_evidence(
     show = (
         (moving_reports == 0)
         | confident
-        | (fleet.sm[rows] >= moving_reports)
+        | ((fleet.sm[rows] >= moving_reports) & (place >= config.show_moving_probability))
         | ((steady_reports > 0) & (fleet.sn[rows] >= steady_reports))
-        | ((limit > 0) & (fleet.sa[rows] >= limit))
+        | ((limit > 0) & (fleet.sa[rows] >= np.where(moving, limit + MOVING_EXTRA_REPORTS, limit)))
     )
     fleet.sp[rows] = np.where(show, 1.0, fleet.sp[rows])
     fleet.pf[rows] = place
