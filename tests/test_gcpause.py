@@ -124,7 +124,10 @@ def test_the_callers_frozen_objects_stay_frozen() -> None:
         assert frozen > 0
         for _ in range(3):
             _allocate_some()
-        assert gc.get_freeze_count() == frozen
+        # an unfreeze would empty the permanent generation; another thread (tqdm's
+        # monitor wakes every 10 s) may free a few objects frozen with the rest, which
+        # takes them out of it: the count may drop by those, not to nothing
+        assert gc.get_freeze_count() >= 0.9 * frozen
     finally:
         gc.unfreeze()
     assert len(kept) == 10
