@@ -486,7 +486,7 @@ def score_fixes(
         new_came,
         error_cols,
         stats,
-        np.where(trusted, course, np.nan),
+        course_deg,
     )
 
 
