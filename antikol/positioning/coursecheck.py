@@ -38,9 +38,9 @@ as reported and from :data:`REVERSED_PRIOR_NATS` for it turned round, each kept 
   that one is (a course right on some headings only, like one stuck at 0, is believed
   where it agrees), and else not at all: the fixes and the run alone place the vehicle.
 
-On the simulator's street and white-noise receivers (36 runs of 12 trams for 10 minutes)
-no right course was ever doubted: the chord-length test and the floor take the heavy
-tails.
+On the simulator's street and white-noise receivers (36 runs of 12 trams for 10 minutes,
+four of 90 minutes) no right course was ever doubted: the chord-length test and the
+floor take the heavy tails.
 
 When a trusted course ends (its first doubt, or a turned-round course that turns out
 right again: a bidirectional tram driven from its other end), the vehicle starts afresh:
