@@ -50,8 +50,9 @@ import numpy as np
 
 from antikol.evaluation.replay import cycles
 from antikol.positioning.config import PositioningConfig
-from antikol.positioning.coursecheck import CHORD_MAX_S, CHORD_MIN_M, CHORD_RUN_FACTOR
+from antikol.positioning.coursecheck import chords
 from antikol.positioning.estimates import NOT_MEASURED
+from antikol.positioning.fleet import FleetState
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
 from antikol.report import VehicleReport, one_per_vehicle
@@ -240,12 +241,11 @@ class TraceConsistency:
     odometer_tolerance_m : float
         The tolerance used, m.
     course_chords, course_chords_off : int
-        Chords between two fixes of a moving vehicle (at least
-        :data:`~antikol.positioning.coursecheck.CHORD_MIN_M` and at most
-        :data:`~antikol.positioning.coursecheck.CHORD_MAX_S` apart, both at 2 m/s or
-        more, the chord as long as the run of the reported speeds), and those whose
-        bearing is :data:`COURSE_OFF_DEG` or more off the mean of the courses reported at
-        their ends: a check of the feed's course field itself.
+        Chords between two fixes of a vehicle that test its course as positioning tests
+        it (:func:`~antikol.positioning.coursecheck.chords`: at least 15 m and at most
+        12 s apart, both ends at 2 m/s or more, as long as the run of the reported
+        speeds), and those whose bearing is :data:`COURSE_OFF_DEG` or more off the mean
+        of the courses reported at their ends: a check of the feed's course field itself.
     course_off_vehicles : int
         Vehicles with three or more chords, :data:`COURSE_OFF_SHARE` or more of them off:
         a course reversed, stuck or in another convention (positioning ignores a course,
@@ -473,42 +473,33 @@ def _odometer_residuals(
 def _course_chords(net: TrackMap, fixes: Sequence[MatchedFix]) -> tuple[int, int, int]:
     """Chords between moving fixes of each vehicle, those whose bearing is off the mean
     reported course, and the vehicles whose course is mostly off (see
-    :class:`TraceConsistency`)."""
+    :class:`TraceConsistency`): the chords positioning tests
+    (:func:`~antikol.positioning.coursecheck.chords`), taken afresh over the trace."""
     per: dict[str, list[MatchedFix]] = defaultdict(list)
     for f in fixes:
-        if f.has_fix and f.report.speed_mps >= _COURSE_SPEED_MPS:
+        if f.has_fix:
             per[f.vehicle_id].append(f)
-    chords = off = vehicles_off = 0
+    anchors = FleetState(k=1)
+    anchors.grow(1)
+    row = np.zeros(1, np.int64)
+    chords_in_all = off = vehicles_off = 0
     for seq in per.values():
         seq.sort(key=lambda f: f.t)
-        x, y = net.to_local([f.report.lon for f in seq], [f.report.lat for f in seq])
+        anchors.clear(0)
+        xs, ys = net.to_local([f.report.lon for f in seq], [f.report.lat for f in seq])
         tested = wrong = 0
-        anchor = 0
-        for k in range(1, len(seq)):
-            p, q = seq[anchor].report, seq[k].report
-            if q.t - p.t > CHORD_MAX_S:
-                anchor = k
-                continue
-            dx, dy = float(x[k] - x[anchor]), float(y[k] - y[anchor])
-            chord_m = math.hypot(dx, dy)
-            if chord_m < CHORD_MIN_M:
-                continue
-            anchor = k
-            ran_m = 0.5 * (p.speed_mps + q.speed_mps) * (q.t - p.t)
-            if not ran_m / CHORD_RUN_FACTOR <= chord_m <= CHORD_RUN_FACTOR * ran_m:
-                continue  # a bias jump or an outlier: no test
-            turn = (q.course_deg - p.course_deg + 180.0) % 360.0 - 180.0
-            if abs(turn) > 90.0:
-                continue
-            bearing = math.degrees(math.atan2(dx, dy))
-            tested += 1
-            wrong += abs((p.course_deg + 0.5 * turn - bearing + 180.0) % 360.0 - 180.0) >= (
-                COURSE_OFF_DEG
-            )
-        chords += tested
+        for f, x, y in zip(seq, np.atleast_1d(xs), np.atleast_1d(ys), strict=True):
+            r = f.report
+            got = chords(
+                anchors, _COURSE_SPEED_MPS, row, np.array([r.t]), np.array([r.speed_mps]),
+                np.array([x]), np.array([y]), np.array([r.course_deg]),
+            )  # fmt: skip
+            tested += len(got.at)
+            wrong += int(np.count_nonzero(got.off_deg >= COURSE_OFF_DEG))
+        chords_in_all += tested
         off += wrong
         vehicles_off += tested >= 3 and wrong >= COURSE_OFF_SHARE * tested
-    return chords, off, vehicles_off
+    return chords_in_all, off, vehicles_off
 
 
 def _place(p: Placed) -> tuple[int, float, int]:

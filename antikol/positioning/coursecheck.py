@@ -73,7 +73,7 @@ import math
 from collections import Counter
 from collections.abc import Sequence
 from enum import IntEnum
-from typing import Final
+from typing import Final, NamedTuple
 
 import numpy as np
 
@@ -89,8 +89,10 @@ __all__ = [
     "CHORD_RUN_FACTOR",
     "PRIOR_NATS",
     "REVERSED_PRIOR_NATS",
+    "Chords",
     "CourseUse",
     "checked_courses",
+    "chords",
     "course_evidence",
 ]
 
@@ -208,22 +210,9 @@ def checked_courses(
     if not config.course_check:
         return course_deg
     f = fleet
-    age = t - f.qt[rows]
-    with np.errstate(invalid="ignore"):  # NaN: no anchor yet
-        dx, dy = x_m - f.qx[rows], y_m - f.qy[rows]
-    chord_m = np.hypot(dx, dy)
-    renew = ~(age <= CHORD_MAX_S) | (age < 0.0)  # also NaN: no anchor yet
-    ready = ~renew & (chord_m >= CHORD_MIN_M)
-    if ready.any():
-        at = np.flatnonzero(ready)
-        _test_chords(f, config, [reports[i] for i in at.tolist()], rows[at], speed_mps[at],
-                     course_deg[at], age[at], dx[at], dy[at], stats)  # fmt: skip
-    # a standing receiver's fix is no anchor: the chord starts at the first moving one
-    move = renew | ready | (f.qv[rows] < config.min_speed_for_course_mps)
-    if move.any():
-        moved = rows[move]
-        f.qx[moved], f.qy[moved], f.qt[moved] = x_m[move], y_m[move], t[move]
-        f.qv[moved], f.qc[moved] = speed_mps[move], course_deg[move]
+    tested = chords(f, config.min_speed_for_course_mps, rows, t, speed_mps, x_m, y_m, course_deg)
+    if len(tested.at):
+        _weigh_chords(f, config, [reports[i] for i in tested.at.tolist()], tested, stats)
     use = f.qn[rows]
     ignored, turned = use == CourseUse.IGNORED, use == CourseUse.TURNED
     if not (ignored.any() or turned.any()):  # (the usual case: every course as reported)
@@ -235,43 +224,108 @@ def checked_courses(
     return np.where(ignored, np.nan, np.where(turned, (course_deg + 180.0) % 360.0, course_deg))
 
 
-def _test_chords(
+class Chords(NamedTuple):
+    """The chords tested at a batch of reports (:func:`chords`): the reports' indices in the
+    batch and their vehicles' fleet rows, how far each chord's bearing is off the mean of
+    the courses at its ends (degrees, 0-180), its length, m, and the mean of the speeds at
+    its ends, m/s."""
+
+    at: IntArray
+    rows: IntArray
+    off_deg: FloatArray
+    chord_m: FloatArray
+    mean_speed_mps: FloatArray
+
+
+def chords(
+    fleet: FleetState,
+    min_speed_mps: float,
+    rows: IntArray,
+    t: FloatArray,
+    speed_mps: FloatArray,
+    x_m: FloatArray,
+    y_m: FloatArray,
+    course_deg: FloatArray,
+) -> Chords:
+    """Close each vehicle's chord at its new fix where one is due, and test it.
+
+    A chord runs from the vehicle's anchor fix to a fix at least :data:`CHORD_MIN_M` from
+    it and at most :data:`CHORD_MAX_S` after it; the anchor then moves there (and to any
+    fix of a vehicle standing below ``min_speed_mps``, or after a longer wait). A chord
+    tests the course when both its ends move at ``min_speed_mps`` or more, it is as long
+    as the run of the reported speeds (within :data:`CHORD_RUN_FACTOR`) and the courses
+    at its ends differ by :data:`MAX_END_TURN_DEG` or less.
+
+    Parameters
+    ----------
+    fleet : FleetState
+        Its anchor fields (``qx``, ``qy``, ``qt``, ``qv``, ``qc``: local position, m,
+        time, s, speed, m/s, course, degrees) are updated.
+    min_speed_mps : float
+        Slowest speed at which a course means anything, m/s.
+    rows : ndarray of int
+        The fleet row of each report (at most one report per vehicle).
+    t, speed_mps, x_m, y_m, course_deg : ndarray of float
+        Each report's time (s), reported speed (m/s), fix in the map's local frame (m)
+        and reported course (degrees clockwise from north).
+
+    Returns
+    -------
+    Chords
+        The chords that test a course.
+    """
+    f = fleet
+    age = t - f.qt[rows]
+    with np.errstate(invalid="ignore"):  # NaN: no anchor yet
+        dx, dy = x_m - f.qx[rows], y_m - f.qy[rows]
+    chord_m = np.hypot(dx, dy)
+    renew = ~(age <= CHORD_MAX_S) | (age < 0.0)  # also NaN: no anchor yet
+    ready = ~renew & (chord_m >= CHORD_MIN_M)
+    at = np.flatnonzero(ready)
+    if len(at):
+        ran_m = 0.5 * (f.qv[rows[at]] + speed_mps[at]) * age[at]
+        end_turn = _turn(course_deg[at], f.qc[rows[at]])
+        test = (
+            (np.minimum(f.qv[rows[at]], speed_mps[at]) >= min_speed_mps)
+            & (chord_m[at] <= CHORD_RUN_FACTOR * ran_m)
+            & (chord_m[at] >= ran_m / CHORD_RUN_FACTOR)
+            & (np.abs(end_turn) <= MAX_END_TURN_DEG)
+        )
+        at, end_turn = at[test], end_turn[test]
+        bearing = np.degrees(np.arctan2(dx[at], dy[at]))
+        off = np.abs(_turn(f.qc[rows[at]] + 0.5 * end_turn, bearing))
+        mean_speed = 0.5 * (f.qv[rows[at]] + speed_mps[at])
+    else:
+        off = mean_speed = np.zeros(0)
+    # a standing receiver's fix is no anchor: the chord starts at the first moving one
+    move = renew | ready | (f.qv[rows] < min_speed_mps)
+    if move.any():
+        moved = rows[move]
+        f.qx[moved], f.qy[moved], f.qt[moved] = x_m[move], y_m[move], t[move]
+        f.qv[moved], f.qc[moved] = speed_mps[move], course_deg[move]
+    return Chords(at, rows[at], off, chord_m[at], mean_speed)
+
+
+def _weigh_chords(
     f: FleetState,
     config: PositioningConfig,
     reports: Sequence[VehicleReport | None],
-    rows: IntArray,
-    speed_mps: FloatArray,
-    course_deg: FloatArray,
-    age_s: FloatArray,
-    dx: FloatArray,
-    dy: FloatArray,
+    tested: Chords,
     stats: Counter[str] | None,
 ) -> None:
-    """Test the chords of the reports of vehicles ``rows`` (each chord at least
-    :data:`CHORD_MIN_M` long: the fix is ``dx``, ``dy`` m east and north of the anchor fix
-    taken ``age_s`` s before); update their evidence and their :class:`CourseUse` (a use
-    only changes with its evidence)."""
-    chord_m = np.hypot(dx, dy)
-    ran_m = 0.5 * (f.qv[rows] + speed_mps) * age_s
-    end_turn = _turn(course_deg, f.qc[rows])
-    test = (
-        (np.minimum(f.qv[rows], speed_mps) >= config.min_speed_for_course_mps)
-        & (chord_m <= CHORD_RUN_FACTOR * ran_m)
-        & (chord_m >= ran_m / CHORD_RUN_FACTOR)
-        & (np.abs(end_turn) <= MAX_END_TURN_DEG)
-    )
-    if not test.any():
-        return
-    rows, chord_m, end_turn = rows[test], chord_m[test], end_turn[test]
-    mean_speed = np.maximum(0.5 * (f.qv[rows] + speed_mps[test]), 0.1)
-    picked = np.flatnonzero(test).tolist()
-    white_m = np.array([_white_m(config, reports[i]) for i in picked])
+    """Weigh the tested chords (``reports`` are theirs) as evidence for a course that is
+    right and for one turned round; update the vehicles' :class:`CourseUse` (a use only
+    changes with its evidence)."""
+    rows = tested.rows
+    white_m = np.array([_white_m(config, r) for r in reports])
     sigma_deg = np.hypot(
-        np.degrees(math.sqrt(2.0) * white_m / chord_m),
-        np.hypot(config.course_sigma_deg, config.course_noise_deg_mps / mean_speed),
+        np.degrees(math.sqrt(2.0) * white_m / tested.chord_m),
+        np.hypot(
+            config.course_sigma_deg,
+            config.course_noise_deg_mps / np.maximum(tested.mean_speed_mps, 0.1),
+        ),
     )
-    bearing = np.degrees(np.arctan2(dx[test], dy[test]))
-    off = np.abs(_turn(f.qc[rows] + 0.5 * end_turn, bearing))
+    off = tested.off_deg
     for name, prior, off_deg in (("qe", PRIOR_NATS, off), ("qr", REVERSED_PRIOR_NATS, 180.0 - off)):
         held = prior + getattr(f, name)[rows] + course_evidence(off_deg, sigma_deg)
         getattr(f, name)[rows] = np.clip(held, -CAP_NATS, CAP_NATS) - prior
