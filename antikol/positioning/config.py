@@ -63,9 +63,10 @@ class PositioningConfig:
     min_speed_for_course_mps : float
         Below this speed the course carries no weight, m/s, except at a standing start.
     course_check : int
-        1: each vehicle's course is checked against the chords of its own fixes and
-        ignored while they show it wrong (a reversed, stuck or misread course field,
-        :mod:`antikol.positioning.coursecheck`); 0: every course is weighed as reported.
+        1: each vehicle's course is checked against the chords of its own fixes, turned
+        round while they show it reversed and ignored while they show it otherwise wrong
+        (a stuck or misread course field, :mod:`antikol.positioning.coursecheck`); 0:
+        every course is weighed as reported.
     start_course_max_speed_mps, start_course_sigma_deg, start_course_outlier_weight : float
         A vehicle that starts afresh below ``start_course_max_speed_mps`` (m/s) has its
         course compared once with the track's running way, at ``start_course_sigma_deg``
