@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from antikol import VehicleReport
-from antikol.analysis.sector import CourseKeeper, SectorRule
+from antikol.analysis.coursekeeper import CourseKeeper
+from antikol.analysis.sector import SectorRule
 from antikol.table import VehicleTable
 from tests._paths import GDANSK
 

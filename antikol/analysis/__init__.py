@@ -10,7 +10,8 @@
 from antikol.analysis.analyser import Analyser, AnalyserConfig, Zone
 from antikol.analysis.assessment import Assessment, Suppressed, Threat
 from antikol.analysis.braking import BrakingProfile, load_profile
-from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule
+from antikol.analysis.coursekeeper import CourseKeeper
+from antikol.analysis.sector import SectorHit, SectorRule
 
 __all__ = [
     "Analyser",

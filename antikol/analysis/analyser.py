@@ -39,10 +39,11 @@ from antikol.analysis.alarms import AlarmBook, AlarmPolicy
 from antikol.analysis.assessment import Assessment, Suppressed, Threat, Zone, assessment_of
 from antikol.analysis.branches import BranchSettings
 from antikol.analysis.conflicts import RuleSettings
+from antikol.analysis.coursekeeper import CourseKeeper
 from antikol.analysis.fleetsector import FleetSector, fleet_sector, sector_assessments
 from antikol.analysis.pairs import PairEvaluator, PairOutcome, PairSettings
 from antikol.analysis.profiles import BrakingProfile, load_profile
-from antikol.analysis.sector import CourseKeeper, SectorHit, SectorRule, hit_closing_speed
+from antikol.analysis.sector import SectorHit, SectorRule, hit_closing_speed
 from antikol.analysis.threats import sector_threat, suppression_reason, track_threat
 from antikol.analysis.views import CycleViews, ViewSettings, build_views
 from antikol.errors import InvalidArgumentError, UnknownVehicleError
@@ -249,7 +250,10 @@ class Analyser:
         )
         self.verifier = verifier
         self.replay_guard = replay_guard
-        self.courses = CourseKeeper(min_speed_mps=self.sector.min_speed_for_course_mps)
+        self.courses = CourseKeeper(
+            min_speed_mps=self.sector.min_speed_for_course_mps,
+            config=positioning or PositioningConfig(),
+        )
         self.profile = profile if profile is not None else load_profile("tram")
         self.profiles = dict(profiles or {})
         self.config = config or AnalyserConfig()
@@ -434,7 +438,7 @@ class Analyser:
         if result.evicted is not None:
             self._forget(result.evicted)
         if result.accepted:
-            self.courses.update(report)
+            self.courses.add(report)
             was = self._moving.get(report.vehicle_id, False)
             limit = self.config.stopped_speed_mps if was else self.config.start_speed_mps
             self._moving[report.vehicle_id] = report.speed_mps >= limit
@@ -702,7 +706,10 @@ class Analyser:
         if known is not None and known[0] is own and known[1] is other and known[2] is hit:
             closing = known[3]  # the cycle's hits, computed in one array call
         else:
-            closing = hit_closing_speed(own, self.courses.course(own.vehicle_id), other, hit)
+            closing = hit_closing_speed(
+                own, self.courses.course(own.vehicle_id), other, hit,
+                other_course_deg=self.courses.reported_course(other),
+            )  # fmt: skip
         return sector_threat(self.sector, hit, closing, note)
 
     def _fleet_hits(self, now: float) -> FleetSector:
@@ -712,8 +719,9 @@ class Analyser:
             reports = list(self.table)
             courses = [self.courses.course(r.vehicle_id) for r in reports]
             self._fleet_sector = fleet_sector(
-                self.sector, reports, courses, now=now, expiry_s=self.expiry_s, key=key
-            )
+                self.sector, reports, courses, now=now, expiry_s=self.expiry_s, key=key,
+                velocity_courses=[self.courses.reported_course(r) for r in reports],
+            )  # fmt: skip
         return self._fleet_sector
 
     # -- per-cycle views -----------------------------------------------------------------

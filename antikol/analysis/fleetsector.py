@@ -48,6 +48,7 @@ def fleet_sector(
     now: float,
     expiry_s: float,
     key: object = None,
+    velocity_courses: Sequence[float] | None = None,
 ) -> FleetSector:
     """Every vehicle's sector hits and their closing speeds, in array calls.
 
@@ -65,6 +66,10 @@ def fleet_sector(
         s.
     key : object
         Stored in the result (what it was computed for).
+    velocity_courses : sequence of float, optional
+        The course of each vehicle's velocity in the closing speeds, degrees (default:
+        the reported ones; :meth:`~antikol.analysis.coursekeeper.CourseKeeper.reported_course`
+        gives them as the course check takes them).
 
     Returns
     -------
@@ -82,7 +87,10 @@ def fleet_sector(
     if not len(pairs.own):
         return FleetSector(key, hits, closing)
     speed = np.fromiter((r.speed_mps for r in reports), dtype=float, count=n)
-    reported = np.fromiter((r.course_deg for r in reports), dtype=float, count=n)
+    if velocity_courses is None:
+        reported = np.fromiter((r.course_deg for r in reports), dtype=float, count=n)
+    else:
+        reported = np.asarray(velocity_courses, dtype=float)
     speeds = pair_closing_speeds(pairs, speed, course, reported)
     for i, j, d, b, c in zip(
         pairs.own.tolist(),

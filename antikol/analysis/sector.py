@@ -7,7 +7,8 @@ whenever no map is loaded or a vehicle cannot be matched to a track.
 
 Standing still: a GPS course over ground is noise when the vehicle barely moves, so the
 course used by the rule is the last course reported at or above ``min_speed_for_course_mps``
-(:class:`CourseKeeper`). A vehicle that has never moved fast enough has no known course and
+(:class:`~antikol.analysis.coursekeeper.CourseKeeper`, which also checks it against the
+vehicle's own run). A vehicle that has never moved fast enough has no known course and
 raises no sector alarm of its own: it cannot run into anything while it stands, and the
 vehicles approaching it see it in their own sectors.
 """
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -38,7 +39,6 @@ from antikol.report import VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS, D_COL_M, HALF_ANGLE_DEG
 
 __all__ = [
-    "CourseKeeper",
     "HitClosing",
     "SectorHit",
     "SectorPairs",
@@ -283,12 +283,18 @@ class HitClosing(NamedTuple):
 
 
 def hit_closing_speed(
-    own: VehicleReport, course_deg: float | None, other: VehicleReport, hit: SectorHit
+    own: VehicleReport,
+    course_deg: float | None,
+    other: VehicleReport,
+    hit: SectorHit,
+    *,
+    other_course_deg: float | None = None,
 ) -> float:
     """The closing speed of one sector hit, m/s (positive when closing).
 
     The other vehicle's offset from the hit's distance and bearing; the own vehicle at
-    ``course_deg`` (its kept course, degrees; None: the reported one).
+    ``course_deg`` (its kept course, degrees; None: the reported one), the other at
+    ``other_course_deg`` (degrees; None: its reported course).
     """
     bearing = math.radians(hit.bearing_deg)
     return float(
@@ -298,7 +304,7 @@ def hit_closing_speed(
             own.speed_mps,
             own.course_deg if course_deg is None else course_deg,
             other.speed_mps,
-            other.course_deg,
+            other.course_deg if other_course_deg is None else other_course_deg,
         )
     )
 
@@ -398,35 +404,3 @@ def pair_closing_speeds(
         reported_course_deg[pairs.other],
     )
     return np.asarray(closing, dtype=float).reshape(-1)
-
-
-@dataclass
-class CourseKeeper:
-    """Remembers each vehicle's last trustworthy course.
-
-    Parameters
-    ----------
-    min_speed_mps : float
-        Reports slower than this keep the previously trusted course, m/s.
-    """
-
-    min_speed_mps: float = COURSE_MIN_SPEED_MPS
-    _courses: dict[str, float] = field(default_factory=dict)
-
-    def update(self, report: VehicleReport) -> float | None:
-        """Record a report and return the course to use for it (deg), or None if unknown."""
-        if report.speed_mps >= self.min_speed_mps:
-            self._courses[report.vehicle_id] = report.course_deg
-        return self._courses.get(report.vehicle_id)
-
-    def course(self, vehicle_id: str) -> float | None:
-        """The trusted course of a vehicle, degrees, or None when never moving fast enough."""
-        return self._courses.get(vehicle_id)
-
-    def forget(self, vehicle_id: str) -> None:
-        """Drop a vehicle (e.g. when it leaves the vehicle table)."""
-        self._courses.pop(vehicle_id, None)
-
-    def keep(self, vehicle_id: str, course_deg: float) -> None:
-        """Set a vehicle's trusted course, degrees (restoring a saved state)."""
-        self._courses[vehicle_id] = float(course_deg)

@@ -72,6 +72,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Final, NamedTuple
 
@@ -84,13 +85,17 @@ from antikol.report import VehicleReport
 
 __all__ = [
     "CAP_NATS",
+    "CHECK_FIELDS",
     "CHORD_MAX_S",
     "CHORD_MIN_M",
     "CHORD_RUN_FACTOR",
     "PRIOR_NATS",
     "REVERSED_PRIOR_NATS",
     "Chords",
+    "CourseCheck",
+    "CourseCheckState",
     "CourseUse",
+    "check_courses",
     "checked_courses",
     "chords",
     "course_evidence",
@@ -127,6 +132,47 @@ class CourseUse(IntEnum):
     TURNED = 3
     """Turned round by 180 degrees: the chords show it reversed (a bidirectional vehicle
     reporting the heading of its other end)."""
+
+
+#: The course-check fields of a vehicle's row (:class:`CourseCheckState`, and the same
+#: fields of a positioner's :class:`~antikol.positioning.fleet.FleetState`).
+CHECK_FIELDS: Final = ("qx", "qy", "qt", "qv", "qc", "qe", "qr", "qn")
+
+
+@dataclass
+class CourseCheckState:
+    """The course check's state of vehicles that are not positioned on a map (one row
+    each): the anchor fix (``qx``, ``qy``, m, in the frame of the fixes passed with it;
+    ``qt``, s; ``qv``, m/s; ``qc``, degrees), the evidence beyond the priors (``qe``,
+    ``qr``, nats) and the :class:`CourseUse` (``qn``). Rows grow in blocks."""
+
+    qx: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qy: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qt: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qv: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qc: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qe: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qr: FloatArray = field(default_factory=lambda: np.zeros(0))
+    qn: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    def __len__(self) -> int:
+        return len(self.qt)
+
+    def grow(self, n: int) -> None:
+        """Extend to at least ``n`` rows (new rows cleared; capacity doubles)."""
+        old = len(self)
+        if n <= old:
+            return
+        n = max(n, 2 * old, 8)
+        for name in CHECK_FIELDS:
+            setattr(self, name, np.concatenate([getattr(self, name), np.zeros(n - old)]))
+        for row in range(old, n):
+            self.clear(row)
+
+    def clear(self, row: int) -> None:
+        """Empty one row (a new or forgotten vehicle): no anchor, no evidence, untested."""
+        self.qx[row] = self.qy[row] = self.qt[row] = self.qv[row] = self.qc[row] = np.nan
+        self.qe[row] = self.qr[row] = self.qn[row] = 0.0
 
 
 def _turn(to_deg: FloatArray, from_deg: FloatArray) -> FloatArray:
@@ -172,30 +218,17 @@ def checked_courses(
 ) -> FloatArray:
     """Check each vehicle's course against the chord of its fixes; the courses to weigh.
 
+    :func:`check_courses` on a positioner's fleet, which also starts afresh a vehicle
+    whose trusted course ends (its hypotheses were weighed with that course) and forgets
+    the latency its fixes taught.
+
     Parameters
     ----------
     fleet : FleetState
-        Its course-check fields are updated (``qx``, ``qy``, ``qt``, ``qv``, ``qc``: the
-        anchor fix's local position, m, time, s, speed, m/s, and course, degrees; ``qe``
-        and ``qr``: the evidence for a right and for a reversed course beyond
-        :data:`PRIOR_NATS` and :data:`REVERSED_PRIOR_NATS`, nats; ``qn``: the
-        :class:`CourseUse`).
-    config : PositioningConfig
-        The fixes' white noise (``error_scales``), the course's error
-        (``course_sigma_deg``, ``course_noise_deg_mps``) and whether to check at all
-        (``course_check``).
-    reports : sequence of VehicleReport or None
-        The reports (their fix quality and HDOP; None: a plain fix).
-    rows : ndarray of int
-        The fleet row of each report (at most one report per vehicle).
-    t : ndarray of float
-        Report times, s.
-    speed_mps : ndarray of float
-        Reported speeds, m/s.
-    x_m, y_m : ndarray of float
-        The fixes in the map's local frame, m.
-    course_deg : ndarray of float
-        Reported courses, degrees clockwise from north.
+        The positioner's fleet: its course-check fields (:class:`CourseCheckState`) are
+        updated, and ``hs`` emptied where a trusted course ends.
+    config, reports, rows, t, speed_mps, x_m, y_m, course_deg
+        As for :func:`check_courses`.
     stats : Counter, optional
         Counts ``course_ignored`` and ``course_turned`` (reports whose course is not
         weighed, or weighed turned round) and ``course_doubted`` (vehicles whose trusted
@@ -207,38 +240,120 @@ def checked_courses(
         Per report, the course to weigh, degrees: as reported, turned round, or NaN
         (ignored).
     """
+    checked = check_courses(fleet, config, reports, rows, t, speed_mps, x_m, y_m, course_deg,
+                            stats)  # fmt: skip
+    # a trusted course that ends (the first doubt of one, or a turned-round one) leaves
+    # hypotheses weighed with it: start afresh
+    if len(checked.ended):
+        fleet.hs[checked.ended] = -1
+        forget_latency(fleet, checked.ended)
+        if stats is not None:
+            stats["course_doubted"] += len(checked.ended)
+    return checked.course_deg
+
+
+class CourseCheck(NamedTuple):
+    """What :func:`check_courses` found at a batch of reports: the course to weigh for
+    each (degrees; NaN: ignored), the chords it tested, and the fleet rows of the vehicles
+    whose trusted use of their course (as reported, never doubted, or turned round)
+    ended there."""
+
+    course_deg: FloatArray
+    chords: Chords
+    ended: IntArray
+
+
+def check_courses(
+    state: CourseCheckState | FleetState,
+    config: PositioningConfig,
+    reports: Sequence[VehicleReport | None],
+    rows: IntArray,
+    t: FloatArray,
+    speed_mps: FloatArray,
+    x_m: FloatArray,
+    y_m: FloatArray,
+    course_deg: FloatArray,
+    stats: Counter[str] | None = None,
+) -> CourseCheck:
+    """Check each vehicle's course against the chord of its fixes.
+
+    Parameters
+    ----------
+    state : CourseCheckState or FleetState
+        Its course-check fields are updated (``qx``, ``qy``, ``qt``, ``qv``, ``qc``: the
+        anchor fix's local position, m, time, s, speed, m/s, and course, degrees; ``qe``
+        and ``qr``: the evidence for a right and for a reversed course beyond
+        :data:`PRIOR_NATS` and :data:`REVERSED_PRIOR_NATS`, nats; ``qn``: the
+        :class:`CourseUse`).
+    config : PositioningConfig
+        The fixes' white noise (``error_scales``), the course's error
+        (``course_sigma_deg``, ``course_noise_deg_mps``), the slowest speed whose course
+        means anything (``min_speed_for_course_mps``) and whether to check at all
+        (``course_check``).
+    reports : sequence of VehicleReport or None
+        The reports (their fix quality and HDOP; None: a plain fix).
+    rows : ndarray of int
+        The state's row of each report (at most one report per vehicle).
+    t : ndarray of float
+        Report times, s.
+    speed_mps : ndarray of float
+        Reported speeds, m/s.
+    x_m, y_m : ndarray of float
+        The fixes in a local metric frame (x east, y north), m; a vehicle's fixes in the
+        same frame as its anchor.
+    course_deg : ndarray of float
+        Reported courses, degrees clockwise from north.
+    stats : Counter, optional
+        Counts ``course_ignored`` and ``course_turned``: reports whose course is not
+        weighed, or weighed turned round.
+
+    Returns
+    -------
+    CourseCheck
+        The course to weigh per report, the chords tested, the vehicles whose trusted
+        course ended.
+    """
+    none = np.zeros(0, np.int64)
     if not config.course_check:
-        return course_deg
-    f = fleet
+        return CourseCheck(course_deg, _no_chords(), none)
+    f = state
     tested = chords(f, config.min_speed_for_course_mps, rows, t, speed_mps, x_m, y_m, course_deg)
+    ended = none
     if len(tested.at):
-        _weigh_chords(f, config, [reports[i] for i in tested.at.tolist()], tested, stats)
+        ended = _weigh_chords(f, config, [reports[i] for i in tested.at.tolist()], tested)
     use = f.qn[rows]
     ignored, turned = use == CourseUse.IGNORED, use == CourseUse.TURNED
     if not (ignored.any() or turned.any()):  # (the usual case: every course as reported)
-        return course_deg
+        return CourseCheck(course_deg, tested, ended)
     if stats is not None:
         for name, which in (("course_ignored", ignored), ("course_turned", turned)):
             if which.any():
                 stats[name] += int(np.count_nonzero(which))
-    return np.where(ignored, np.nan, np.where(turned, (course_deg + 180.0) % 360.0, course_deg))
+    weighed = np.where(ignored, np.nan, np.where(turned, (course_deg + 180.0) % 360.0, course_deg))
+    return CourseCheck(weighed, tested, ended)
 
 
 class Chords(NamedTuple):
     """The chords tested at a batch of reports (:func:`chords`): the reports' indices in the
-    batch and their vehicles' fleet rows, how far each chord's bearing is off the mean of
-    the courses at its ends (degrees, 0-180), its length, m, and the mean of the speeds at
-    its ends, m/s."""
+    batch and their vehicles' rows, how far each chord's bearing is off the mean of the
+    courses at its ends (degrees, 0-180), its length, m, the mean of the speeds at its
+    ends, m/s, and its bearing (the course made good, degrees clockwise from north)."""
 
     at: IntArray
     rows: IntArray
     off_deg: FloatArray
     chord_m: FloatArray
     mean_speed_mps: FloatArray
+    bearing_deg: FloatArray
+
+
+def _no_chords() -> Chords:
+    none, empty = np.zeros(0, np.int64), np.zeros(0)
+    return Chords(none, none, empty, empty, empty, empty)
 
 
 def chords(
-    fleet: FleetState,
+    fleet: CourseCheckState | FleetState,
     min_speed_mps: float,
     rows: IntArray,
     t: FloatArray,
@@ -258,7 +373,7 @@ def chords(
 
     Parameters
     ----------
-    fleet : FleetState
+    fleet : CourseCheckState or FleetState
         Its anchor fields (``qx``, ``qy``, ``qt``, ``qv``, ``qc``: local position, m,
         time, s, speed, m/s, course, degrees) are updated.
     min_speed_mps : float
@@ -296,26 +411,25 @@ def chords(
         off = np.abs(_turn(f.qc[rows[at]] + 0.5 * end_turn, bearing))
         mean_speed = 0.5 * (f.qv[rows[at]] + speed_mps[at])
     else:
-        off = mean_speed = np.zeros(0)
+        off = mean_speed = bearing = np.zeros(0)
     # a standing receiver's fix is no anchor: the chord starts at the first moving one
     move = renew | ready | (f.qv[rows] < min_speed_mps)
     if move.any():
         moved = rows[move]
         f.qx[moved], f.qy[moved], f.qt[moved] = x_m[move], y_m[move], t[move]
         f.qv[moved], f.qc[moved] = speed_mps[move], course_deg[move]
-    return Chords(at, rows[at], off, chord_m[at], mean_speed)
+    return Chords(at, rows[at], off, chord_m[at], mean_speed, bearing % 360.0)
 
 
 def _weigh_chords(
-    f: FleetState,
+    f: CourseCheckState | FleetState,
     config: PositioningConfig,
     reports: Sequence[VehicleReport | None],
     tested: Chords,
-    stats: Counter[str] | None,
-) -> None:
+) -> IntArray:
     """Weigh the tested chords (``reports`` are theirs) as evidence for a course that is
     right and for one turned round; update the vehicles' :class:`CourseUse` (a use only
-    changes with its evidence)."""
+    changes with its evidence). Returns the rows whose trusted use ended."""
     rows = tested.rows
     white_m = np.array([_white_m(config, r) for r in reports])
     sigma_deg = np.hypot(
@@ -332,14 +446,7 @@ def _weigh_chords(
     before = f.qn[rows].astype(np.int64)
     use = _course_use(before, PRIOR_NATS + f.qe[rows], REVERSED_PRIOR_NATS + f.qr[rows])
     f.qn[rows] = use
-    # a trusted course that ends (the first doubt of one, or a turned-round one) leaves
-    # hypotheses weighed with it: start afresh
-    ended = rows[(use != before) & np.isin(before, (CourseUse.UNTESTED, CourseUse.TURNED))]
-    if len(ended):
-        f.hs[ended] = -1
-        forget_latency(f, ended)
-        if stats is not None:
-            stats["course_doubted"] += len(ended)
+    return rows[(use != before) & np.isin(before, (CourseUse.UNTESTED, CourseUse.TURNED))]
 
 
 def _course_use(before: IntArray, right: FloatArray, reversed_: FloatArray) -> IntArray:
