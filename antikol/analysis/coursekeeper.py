@@ -169,11 +169,9 @@ class CourseKeeper:
         """Check a run of reports (one per vehicle) and keep the courses they give."""
         n = len(reports)
         rows = np.fromiter((self._row(r.vehicle_id) for r in reports), np.int64, count=n)
-        lat = np.fromiter((r.lat for r in reports), float, count=n)
-        lon = np.fromiter((r.lon for r in reports), float, count=n)
-        t = np.fromiter((r.t for r in reports), float, count=n)
-        speed = np.fromiter((r.speed_mps for r in reports), float, count=n)
-        course = np.fromiter((r.course_deg for r in reports), float, count=n)
+        lat, lon, t, speed, course = np.array(
+            [(r.lat, r.lon, r.t, r.speed_mps, r.course_deg) for r in reports], dtype=float
+        ).T
         # formulas (4)-(7) from the anchor fix (no anchor yet: NaN, the check renews it)
         lat0 = self._anchor_lat[rows]
         y_m = -np.asarray(latdist_km(lat0, lat), dtype=float) * 1000.0

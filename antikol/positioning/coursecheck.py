@@ -446,7 +446,8 @@ def _weigh_chords(
     before = f.qn[rows].astype(np.int64)
     use = _course_use(before, PRIOR_NATS + f.qe[rows], REVERSED_PRIOR_NATS + f.qr[rows])
     f.qn[rows] = use
-    return rows[(use != before) & np.isin(before, (CourseUse.UNTESTED, CourseUse.TURNED))]
+    trusted = (before == CourseUse.UNTESTED) | (before == CourseUse.TURNED)
+    return rows[(use != before) & trusted]
 
 
 def _course_use(before: IntArray, right: FloatArray, reversed_: FloatArray) -> IntArray:
