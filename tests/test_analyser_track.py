@@ -277,3 +277,33 @@ def test_radio_stream_and_own_nmea_feed_the_same_analyser(tmp_path):
     a = an.assess()
     assert a.primary is not None and a.primary.vehicle_id == "B"
     assert a.primary.kind == "rear_end" and a.primary.method == "track"
+
+
+@pytest.mark.parametrize("b_speed", [0.0, 2.0])
+def test_a_diamond_fouled_by_the_others_body_warns(tmp_path, b_speed):
+    """B's front has passed the diamond, its rear has not: A must not be told the way is
+    clear. Paths ahead started at the antenna, so the diamond under B's rear half was no
+    conflict of B's, and A got no warning until it ran into B's side."""
+    net = build(diamond_fixture(90.0), tmp_path)
+    ns = [(0.0, -150.0), (0.0, 150.0)]
+    we = [(-150.0, 0.0), (150.0, 0.0)]
+    ends = {"length_m": 30.0, "antenna_offset_m": 15.0}  # the rear 15 m behind the antenna
+    t = np.arange(0.0, 10.5, 0.5)
+    a = reports_along("A", ns, start_m=75.0, speed_mps=6.0, t=t, frame=FRAME, **ends)
+    b_start = 140.0 if b_speed else 160.0  # standing: its antenna 10 m past the diamond
+    b = reports_along("B", we, start_m=b_start, speed_mps=b_speed, t=t, frame=FRAME, **ends)
+    states, _ = run(net, a, b)
+    fouled = [
+        tt
+        for tt in states
+        if 0.0 < b_start + b_speed * tt - 150.0 < 15.0 - 1.0  # rear still on the diamond
+        and 0.0 < 60.0 - 6.0 * tt <= braking.warning_distance(6.0, TRAM)  # A's front nearing
+    ]
+    assert fouled, "the scenario must reach the fouled diamond within the warning distance"
+    kinds = set()
+    for tt in fouled:
+        (threat,) = [th for th in states[tt][1].threats if th.vehicle_id == "B"]
+        assert threat.level in ("warning", "emergency"), tt
+        kinds.add(threat.kind)
+    # (a standing B keeps a small chance of being on A's track: a rear-end threat first)
+    assert "crossing" in kinds

@@ -343,7 +343,9 @@ def at_conflict(
     own_clear_s = math.inf if standing else mine.clear_m / v_own
     if other_arrival_s > own_clear_s + rules.window_slack_s:
         return None  # they cannot be there before we have cleared it
-    if theirs.enter_m > 0.0 and not standing:
+    # (also when they are in the area already: a tram whose rear is still on a diamond it
+    # has passed, moving on, clears it like one that has yet to enter)
+    if not standing:
         own_arrival_s = max(mine.enter_m, 0.0) / v_own
         other_latest_s = (
             theirs.clear_m / other.speed_mps

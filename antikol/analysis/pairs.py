@@ -375,8 +375,7 @@ class PairEvaluator:
         )
         own_arrival_s = np.maximum(app["enter"][a], 0.0) / moving_own
         too_late = (
-            (app["enter"][b] > 0.0)
-            & ~standing
+            ~standing
             & (own_arrival_s > other_latest_s + r.window_slack_s)
             & np.isfinite(other_latest_s)
         )

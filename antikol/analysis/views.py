@@ -63,9 +63,10 @@ class ConflictApproach:
     ----------
     conflict_id : int
     distance_m : float
-        From the antenna to the conflict point along the paths, m.
+        From the antenna to the conflict point along the paths, m; negative behind the
+        antenna, under the vehicle's body (its rear may still foul the point).
     from_edge, to_edge : int
-        The edges the paths arrive on and leave by.
+        The edges the paths arrive on and leave by (in running order, behind as ahead).
     """
 
     conflict_id: int
@@ -159,6 +160,9 @@ class VehicleView:
 
 #: Added to the sum of two vehicles' reaches before they are taken to be out of reach, m.
 REACH_SLACK_M = 100.0
+#: How far behind its rear a vehicle may still foul a conflict point it passed, m (the
+#: longest fouling extent of a merge, with a margin).
+BEHIND_REAR_M = 20.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -431,7 +435,8 @@ def _hypotheses(
             branches.path_probability(p, view.speed_mps, view.report.route) for p in paths
         )
         trusted = not h.wrong_way or h.wrong_way_s >= settings.wrong_way_evidence_s
-        approaches, path_approaches = _approaches(paths)
+        behind = _tracks_behind(net, edge, off, d, abs(view.ends.rear_m) + BEHIND_REAR_M)
+        approaches, path_approaches = _approaches(paths, behind)
         out.append(
             HypothesisView(
                 edge,
@@ -449,42 +454,84 @@ def _hypotheses(
     return out
 
 
+def _tracks_behind(
+    net: TrackMap, edge_id: int, offset_m: float, direction: int, back_m: float
+) -> tuple[Path, ...]:
+    """The tracks up to ``back_m`` behind an antenna (walked backwards, every physical
+    move), where they can hold a conflict point: none when the antenna is farther than
+    that from its edge's entry node and the edge has no crossing along it."""
+    to_entry_m = offset_m if direction > 0 else net.edges[edge_id].length_m - offset_m
+    if to_entry_m > back_m and edge_id not in _edges_with_crossings(net):
+        return ()
+    return tuple(net.paths_ahead(edge_id, offset_m, -direction, back_m, respect_direction=False))
+
+
+_CROSSING_EDGES: dict[int, tuple[object, frozenset[int]]] = {}
+
+
+def _edges_with_crossings(net: TrackMap) -> frozenset[int]:
+    """The edges with a conflict point along them, not at a node (kept per map)."""
+    known = _CROSSING_EDGES.get(id(net))
+    if known is not None and known[0] is net.conflicts:
+        return known[1]
+    edges = frozenset(e for c in net.conflicts if c.node_id is None for e in c.edges)
+    if len(_CROSSING_EDGES) > 16:
+        _CROSSING_EDGES.clear()
+    _CROSSING_EDGES[id(net)] = (net.conflicts, edges)
+    return edges
+
+
 def _approaches(
-    paths: tuple[Path, ...],
+    paths: tuple[Path, ...], behind: tuple[Path, ...] = ()
 ) -> tuple[tuple[ConflictApproach, ...], tuple[tuple[int, ...], ...]]:
     """The distinct ways a hypothesis' paths pass conflict points, and each path's.
 
     A way is the conflict point with the move of the first node of the path within 1e-6 m
     of it (the edges it arrives on and leaves by), or its own edge when no node is there (a
-    crossing along edges). Conflict points and nodes are both sorted by distance: one walk,
-    the window a little wider than the test so that no node the test would accept is
-    skipped.
+    crossing along edges).
+
+    The conflict points on the tracks ``behind`` the antenna (walked backwards) are ways
+    at negative distances, their moves turned to running order, first on every path: a
+    vehicle whose front has passed a diamond still fouls it with its body for another.
     """
     # keyed by plain tuples: hashing a frozen dataclass rebuilds a tuple on every look-up
     index: dict[tuple[int, float, int, int], int] = {}
+    back: list[int] = []
+    for p in behind:
+        for cid, d, walked_from, walked_to in _ways(p):
+            k = index.setdefault((cid, -d, walked_to, walked_from), len(index))
+            if k not in back:
+                back.append(k)
+    keys = list(index)
+    back.sort(key=lambda k: keys[k][1])  # running order: the farthest behind first
     per_path = []
     for p in paths:
-        mine = []
-        nodes = p.nodes
-        n_nodes = len(nodes)
-        i = 0
-        for cp in p.conflicts:
-            d = cp.distance_m
-            while i < n_nodes and nodes[i].distance_m < d - 2e-6:
-                i += 1
-            key = None
-            for j in range(i, n_nodes):
-                node = nodes[j]
-                if node.distance_m > d + 2e-6:
-                    break
-                if abs(node.distance_m - d) < 1e-6:
-                    key = (cp.conflict_id, d, node.from_edge, node.to_edge)
-                    break
-            if key is None:
-                key = (cp.conflict_id, d, cp.edge_id, cp.edge_id)
-            k = index.get(key)
-            if k is None:
-                k = index[key] = len(index)
-            mine.append(k)
+        mine = list(back)
+        for key in _ways(p):
+            mine.append(index.setdefault(key, len(index)))
         per_path.append(tuple(mine))
     return tuple(ConflictApproach(*key) for key in index), tuple(per_path)
+
+
+def _ways(p: Path) -> list[tuple[int, float, int, int]]:
+    """The ways one path passes its conflict points, in its running order. Conflict points
+    and nodes are both sorted by distance: one walk, the window a little wider than the
+    test so that no node the test would accept is skipped."""
+    out = []
+    nodes = p.nodes
+    n_nodes = len(nodes)
+    i = 0
+    for cp in p.conflicts:
+        d = cp.distance_m
+        while i < n_nodes and nodes[i].distance_m < d - 2e-6:
+            i += 1
+        key = None
+        for j in range(i, n_nodes):
+            node = nodes[j]
+            if node.distance_m > d + 2e-6:
+                break
+            if abs(node.distance_m - d) < 1e-6:
+                key = (cp.conflict_id, d, node.from_edge, node.to_edge)
+                break
+        out.append((cp.conflict_id, d, cp.edge_id, cp.edge_id) if key is None else key)
+    return out
