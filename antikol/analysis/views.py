@@ -493,12 +493,19 @@ def _approaches(
     The conflict points on the tracks ``behind`` the antenna (walked backwards) are ways
     at negative distances, their moves turned to running order, first on every path: a
     vehicle whose front has passed a diamond still fouls it with its body for another.
+    Where the tracks behind part (a merge or a crossover the vehicle has passed, walked
+    backwards), only the conflict points up to that node count, there by every way: which
+    track the vehicle came from is not known, and the far switch of a crossover behind it
+    is not on its way.
     """
     # keyed by plain tuples: hashing a frozen dataclass rebuilds a tuple on every look-up
     index: dict[tuple[int, float, int, int], int] = {}
     back: list[int] = []
+    parting_m = _parting_m(behind)
     for p in behind:
         for cid, d, walked_from, walked_to in _ways(p):
+            if d > parting_m + 1e-6:
+                break
             k = index.setdefault((cid, -d, walked_to, walked_from), len(index))
             if k not in back:
                 back.append(k)
@@ -511,6 +518,17 @@ def _approaches(
             mine.append(index.setdefault(key, len(index)))
         per_path.append(tuple(mine))
     return tuple(ConflictApproach(*key) for key in index), tuple(per_path)
+
+
+def _parting_m(paths: tuple[Path, ...]) -> float:
+    """Distance to the node where the paths part (no node: infinite), m."""
+    if len(paths) < 2:
+        return math.inf
+    edges = [p.edges for p in paths]
+    common = 0
+    while all(len(e) > common and e[common] == edges[0][common] for e in edges):
+        common += 1
+    return paths[0].steps[common - 1].end_m if common else 0.0
 
 
 def _ways(p: Path) -> list[tuple[int, float, int, int]]:
