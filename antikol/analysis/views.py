@@ -501,7 +501,7 @@ def _approaches(
     # keyed by plain tuples: hashing a frozen dataclass rebuilds a tuple on every look-up
     index: dict[tuple[int, float, int, int], int] = {}
     back: list[int] = []
-    parting_m = _parting_m(behind)
+    parting_m = _parting_m(behind) if behind else math.inf
     for p in behind:
         for cid, d, walked_from, walked_to in _ways(p):
             if d > parting_m + 1e-6:
@@ -509,8 +509,9 @@ def _approaches(
             k = index.setdefault((cid, -d, walked_to, walked_from), len(index))
             if k not in back:
                 back.append(k)
-    keys = list(index)
-    back.sort(key=lambda k: keys[k][1])  # running order: the farthest behind first
+    if len(back) > 1:
+        keys = list(index)
+        back.sort(key=lambda k: keys[k][1])  # running order: the farthest behind first
     per_path = []
     for p in paths:
         mine = list(back)
