@@ -22,7 +22,12 @@ import trackmap
 from antikol.errors import InvalidArgumentError
 from antikol.evaluation.positioning_accuracy import evaluate_fixes
 from antikol.positioning import PositioningConfig
-from antikol.positioning.coursecheck import CourseUse, checked_courses, course_evidence
+from antikol.positioning.coursecheck import (
+    CourseUse,
+    check_courses,
+    course_evidence,
+    restart_doubted,
+)
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.latency import forget_latency, learn_latency
 from antikol.sim import GpsModel, Simulator, fleet
@@ -48,10 +53,11 @@ def _step(
     stats: Counter[str] | None = None,
 ) -> float:
     """The course weighed for one report (NaN: none)."""
-    used = checked_courses(
+    checked = check_courses(
         f, config, [None], np.array([0]), np.array([t]), np.array([speed]),
         np.array([x]), np.array([y]), np.array([course % 360.0]), stats,
     )  # fmt: skip
+    used = restart_doubted(f, checked, stats)
     return float(used[0])
 
 

@@ -54,9 +54,9 @@ forgotten too (:func:`~antikol.positioning.latency.forget_latency`).
 >>> fleet, config = FleetState(k=4), PositioningConfig()
 >>> fleet.grow(1)
 >>> def run(course_deg):  # a vehicle running east at 10 m/s, reporting course_deg
-...     return [float(checked_courses(fleet, config, [None], np.array([0]),
+...     return [float(check_courses(fleet, config, [None], np.array([0]),
 ...                 np.array([float(s)]), np.array([10.0]), np.array([10.0 * s]),
-...                 np.array([0.0]), np.array([course_deg]))[0]) for s in range(10)]
+...                 np.array([0.0]), np.array([course_deg])).course_deg[0]) for s in range(10)]
 >>> run(90.0)
 [90.0, 90.0, 90.0, 90.0, 90.0, 90.0, 90.0, 90.0, 90.0, 90.0]
 >>> fleet.clear(0)
@@ -96,9 +96,9 @@ __all__ = [
     "CourseCheckState",
     "CourseUse",
     "check_courses",
-    "checked_courses",
     "chords",
     "course_evidence",
+    "restart_doubted",
 ]
 
 #: Shortest chord that tests a course, m (a tram's run of one or two seconds).
@@ -121,7 +121,7 @@ CAP_NATS: Final = 6.0
 
 
 class CourseUse(IntEnum):
-    """How a vehicle's reported course is weighed (:func:`checked_courses`)."""
+    """How a vehicle's reported course is weighed (:func:`check_courses`)."""
 
     UNTESTED = 0
     """As reported, never doubted."""
@@ -204,46 +204,29 @@ def course_evidence(off_deg: FloatArray, sigma_deg: FloatArray) -> FloatArray:
     return np.asarray(np.log((1.0 - FLOOR_WEIGHT) * right * 180.0 + FLOOR_WEIGHT), dtype=float)
 
 
-def checked_courses(
-    fleet: FleetState,
-    config: PositioningConfig,
-    reports: Sequence[VehicleReport | None],
-    rows: IntArray,
-    t: FloatArray,
-    speed_mps: FloatArray,
-    x_m: FloatArray,
-    y_m: FloatArray,
-    course_deg: FloatArray,
-    stats: Counter[str] | None = None,
+def restart_doubted(
+    fleet: FleetState, checked: CourseCheck, stats: Counter[str] | None = None
 ) -> FloatArray:
-    """Check each vehicle's course against the chord of its fixes; the courses to weigh.
+    """Start afresh the vehicles of a positioner whose trusted course ended; the courses
+    to weigh.
 
-    :func:`check_courses` on a positioner's fleet, which also starts afresh a vehicle
-    whose trusted course ends (its hypotheses were weighed with that course) and forgets
-    the latency its fixes taught.
+    Their hypotheses were weighed with that course (``hs`` emptied), and the latency their
+    fixes taught is forgotten.
 
     Parameters
     ----------
     fleet : FleetState
-        The positioner's fleet: its course-check fields (:class:`CourseCheckState`) are
-        updated, and ``hs`` emptied where a trusted course ends.
-    config, reports, rows, t, speed_mps, x_m, y_m, course_deg
-        As for :func:`check_courses`.
+        The positioner's fleet, checked by :func:`check_courses`.
+    checked : CourseCheck
+        What :func:`check_courses` found.
     stats : Counter, optional
-        Counts ``course_ignored`` and ``course_turned`` (reports whose course is not
-        weighed, or weighed turned round) and ``course_doubted`` (vehicles whose trusted
-        use of their course ended at this report: they start afresh).
+        Counts ``course_doubted``: vehicles whose trusted use of their course ended.
 
     Returns
     -------
     ndarray of float
-        Per report, the course to weigh, degrees: as reported, turned round, or NaN
-        (ignored).
+        ``checked.course_deg``: per report, the course to weigh, degrees (NaN: ignored).
     """
-    checked = check_courses(fleet, config, reports, rows, t, speed_mps, x_m, y_m, course_deg,
-                            stats)  # fmt: skip
-    # a trusted course that ends (the first doubt of one, or a turned-round one) leaves
-    # hypotheses weighed with it: start afresh
     if len(checked.ended):
         fleet.hs[checked.ended] = -1
         forget_latency(fleet, checked.ended)

@@ -61,7 +61,7 @@ from antikol.positioning.biasscale import learn_bias_sigma
 from antikol.positioning.branching import Arrivals, tossed_lineages
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
-from antikol.positioning.coursecheck import checked_courses
+from antikol.positioning.coursecheck import check_courses, restart_doubted
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
 from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.feedfaults import stale_fixes, unusable_odometers
@@ -475,8 +475,8 @@ class Positioner:
 
         # a course the run between the vehicle's own fixes shows wrong: ignored or turned round
         course = np.fromiter((r.course_deg for r in reports), float, len(reports))
-        course = checked_courses(self._f, self.config, reports, rows, t, speed, xs, ys,
-                                 course, self.stats)  # fmt: skip
+        course = restart_doubted(self._f, check_courses(self._f, self.config, reports, rows, t,
+                                 speed, xs, ys, course, self.stats), self.stats)  # fmt: skip
         scored = score_fixes(self._f, self.reach, self.config, find, self.reach.headings.at,
                              reports, rows, t, speed, odo, xs, ys,
                              course_deg=course)  # fmt: skip
