@@ -307,3 +307,35 @@ def test_a_diamond_fouled_by_the_others_body_warns(tmp_path, b_speed):
         kinds.add(threat.kind)
     # (a standing B keeps a small chance of being on A's track: a rear-end threat first)
     assert "crossing" in kinds
+
+
+def test_behind_a_tram_only_the_conflicts_up_to_where_the_tracks_part_count(tmp_path):
+    """10 m past the joint of a crossover: the joint's switch is under the tram's body, by
+    either track it came from; the crossover's far switch, on the other track, is not."""
+    from antikol.analysis.views import _approaches, _tracks_behind
+
+    b = OsmBuilder()
+    joint, far = b.node(3.8, 440.0), b.node(0.0, 420.0)
+    b.line([(3.8, 0.0), joint, (3.8, 1000.0)])
+    b.line([(0.0, 1000.0), far, (0.0, 0.0)])
+    b.line([far, joint])
+    net = build(b, tmp_path)
+    x_joint, y_joint = net.to_local(*FRAME.to_lonlat(3.8, 440.0))
+    at_joint = {
+        c.conflict_id for c in net.conflicts if math.dist((c.x, c.y), (x_joint, y_joint)) < 0.5
+    }
+    (north,) = [  # the track on from the joint, northwards
+        e for e in net.edges
+        if math.dist(e.geometry.coords[0], (x_joint, y_joint)) < 0.5 and e.length_m > 500.0
+    ]  # fmt: skip
+    behind = _tracks_behind(net, north.edge_id, 10.0, 1, 35.0)
+    assert len(behind) == 2  # back along its own track, or back through the crossover
+    ahead = tuple(net.paths_ahead(north.edge_id, 10.0, 1, 100.0))
+    approaches, per_path = _approaches(ahead, behind)
+    assert {a.conflict_id for a in approaches} == at_joint  # nothing ahead within 100 m
+    assert all(a.distance_m == pytest.approx(-10.0) for a in approaches)
+    assert len(approaches) == 2 and len({(a.from_edge, a.to_edge) for a in approaches}) == 2
+    assert all(a.to_edge == north.edge_id for a in approaches)  # turned to running order
+    assert per_path == ((0, 1),)  # every path ahead starts with them
+    # 200 m from the joint nothing is looked up behind
+    assert _tracks_behind(net, north.edge_id, 200.0, 1, 35.0) == ()
