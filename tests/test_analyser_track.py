@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol.analysis import braking
@@ -19,6 +22,11 @@ TRAM = braking.load_profile("tram")
 BARE = AnalyserConfig(gap_margin_sigmas=0.0, anticipation_s=0.0)
 #: Vehicles with reported ends: 20 m long, antenna in the middle.
 ENDS = {"length_m": 20.0, "antenna_offset_m": 10.0}
+
+
+@functools.cache
+def _krakow() -> trackmap.TrackMap:
+    return trackmap.load_default()
 
 
 def build(b: OsmBuilder, tmp_path) -> trackmap.TrackMap:
@@ -339,3 +347,29 @@ def test_behind_a_tram_only_the_conflicts_up_to_where_the_tracks_part_count(tmp_
     assert per_path == ((0, 1),)  # every path ahead starts with them
     # 200 m from the joint nothing is looked up behind
     assert _tracks_behind(net, north.edge_id, 200.0, 1, 35.0) == ()
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    edge=st.integers(0, 10_000),
+    share=st.floats(0.0, 1.0),
+    direction=st.sampled_from([1, -1]),
+    rear_m=st.floats(0.0, 40.0),
+)
+def test_conflicts_behind_are_under_the_body_and_first_on_every_path(
+    edge, share, direction, rear_m
+):
+    from antikol.analysis.views import BEHIND_REAR_M, _approaches, _tracks_behind
+
+    net = _krakow()
+    e = net.edges[edge % len(net.edges)]
+    offset = share * e.length_m
+    back_m = rear_m + BEHIND_REAR_M
+    behind = _tracks_behind(net, e.edge_id, offset, direction, back_m)
+    ahead = tuple(net.paths_ahead(e.edge_id, offset, direction, 150.0, respect_direction=False))
+    approaches, per_path = _approaches(ahead, behind)
+    under = [k for k, a in enumerate(approaches) if a.distance_m < 0.0]
+    assert all(-back_m - 1e-6 <= approaches[k].distance_m for k in under)
+    for mine in per_path:  # the body's conflict points first, the farthest behind first
+        assert list(mine[: len(under)]) == sorted(under, key=lambda k: approaches[k].distance_m)
+        assert all(approaches[k].distance_m >= 0.0 for k in mine[len(under) :])

@@ -151,3 +151,30 @@ def test_reports_checked_in_batches_keep_the_courses_of_reports_checked_one_by_o
                 one.course(f"V{k}") for k in range(3)
             ]
     assert [many.use(f"V{k}") for k in range(3)] == [one.use(f"V{k}") for k in range(3)]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    rows=st.lists(
+        st.tuples(
+            st.sampled_from(["A", "B", "C"]),
+            st.floats(-5.0, 100.0),  # times in any order, repeated too
+            st.floats(-89.9, 89.9),
+            st.floats(-180.0, 180.0),
+            st.floats(0.0, 100.0),
+            st.floats(0.0, 359.999),
+        ),
+        max_size=40,
+    ),
+    batch=st.integers(1, 5),
+)
+def test_any_reports_keep_a_course_in_range_or_none(rows, batch):
+    keeper = CourseKeeper()
+    for i, (vid, t, lat, lon, speed, course) in enumerate(rows):
+        keeper.add(VehicleReport(vid, t, lat, lon, speed, course))
+        if i % batch == 0:
+            for v in ("A", "B", "C"):
+                kept = keeper.course(v)
+                assert kept is None or 0.0 <= kept < 360.0
+        if i % 7 == 6:
+            keeper.forget(vid)
