@@ -46,6 +46,9 @@ from antikol.thresholds import COURSE_MIN_SPEED_MPS
 
 __all__ = ["CourseKeeper"]
 
+#: (an enum member's look-up is slow in a loop over reports)
+_IGNORED = int(CourseUse.IGNORED)
+
 
 @dataclass
 class CourseKeeper:
@@ -191,7 +194,7 @@ class CourseKeeper:
         for r, u, kept in zip(reports, use.tolist(), checked.course_deg.tolist(), strict=True):
             if r.speed_mps < self.min_speed_mps:
                 continue
-            if u == CourseUse.IGNORED:
+            if u == _IGNORED:
                 made_good = self._made_good.get(r.vehicle_id)
                 if made_good is None:  # (no chord yet: nothing better known)
                     self._courses.pop(r.vehicle_id, None)
