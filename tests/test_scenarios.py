@@ -15,6 +15,7 @@ from antikol.evaluation.scenarios import (
     run_scenario,
 )
 from antikol.evaluation.scoring import Score, compare
+from antikol.ingest import read_hfp, read_replay_csv
 from trackmap.synthetic import demo_network
 
 SYNTHETIC = demo_network().build()
@@ -125,6 +126,8 @@ def test_cli_simulate_writes_replayable_reports(tmp_path, capsys):
                 str(out),
                 "--nmea",
                 str(nmea),
+                "--hfp",
+                str(tmp_path / "hfp.jsonl"),
             ]
         )
         == 0
@@ -133,6 +136,11 @@ def test_cli_simulate_writes_replayable_reports(tmp_path, capsys):
     assert sorted(p.name for p in nmea.iterdir()) == ["F.nmea", "L.nmea"]
     assert main(["replay", str(out), "-o", str(tmp_path / "e.csv"), "--map", "none"]) == 0
     assert "2 vehicles" in capsys.readouterr().out
+    hfp = read_hfp(tmp_path / "hfp.jsonl")
+    csv_log = read_replay_csv(out)
+    assert not hfp.problems
+    assert len(hfp.reports) == len(csv_log.reports)
+    assert {r.vehicle_id for r in hfp.reports} == {"40/1", "40/2"}  # F and L, in order
 
 
 def test_cli_errors_are_clear(capsys):

@@ -350,13 +350,13 @@ def test_coin_tosses_shown_on_the_wrong_branch_jump_when_the_fix_comes_back(faci
 
 def _slow_departure(bias_m: float, seed: int) -> list[VehicleReport]:
     """A northbound tram that stands one report, its fixes ``bias_m`` west (on the other
-    direction's track), then moves off: 1.5 m/s at its second report, 1.2 m/s² on, with a
+    direction's track), then moves off: 1.7 m/s at its second report, 1.2 m/s² on, with a
     course good to a few degrees."""
     rng = np.random.default_rng(seed)
     y, v, out = 500.0, 0.0, []
     for k in range(25):
         if k:
-            v = 1.5 if k == 1 else min(8.0, v + 1.2)
+            v = 1.7 if k == 1 else min(8.0, v + 1.2)
             y += v
         lon, lat = FRAME.to_lonlat(-bias_m + rng.normal(0.0, 0.3), y + rng.normal(0.0, 0.3))
         course = float(rng.uniform(0.0, 360.0)) if v == 0.0 else float(rng.normal(0.0, 4.0))
@@ -364,8 +364,8 @@ def _slow_departure(bias_m: float, seed: int) -> list[VehicleReport]:
     return out
 
 
-def test_a_slow_departure_is_placed_by_its_course_from_one_metre_a_second(double):
-    """The course weighs from 1 m/s (``min_speed_for_course_mps``): a tram whose first
+def test_a_slow_departure_is_placed_by_its_course_below_two_metres_a_second(double):
+    """The course weighs from 1.5 m/s (``min_speed_for_course_mps``): a tram whose first
     fixes lie on or beyond the other direction's track is not shown there while it moves
     off below 2 m/s (with 2 m/s, 2 of these 48 starts were, and jumped across)."""
     for bias_m, seed in itertools.product((SPACING_M, 5.0, 6.0), range(16)):

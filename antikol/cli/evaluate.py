@@ -69,6 +69,14 @@ def add_parsers(sub: Any) -> None:
         metavar="DIR",
         help="also write one NMEA log per vehicle into DIR",
     )
+    s.add_argument(
+        "--hfp",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="also write the reports as an HSL-style HFP log (JSON lines: a report without "
+        "a fix as loc N/A, the odometer as odo), as an operator's archive gives them",
+    )
     _scenario_options(s)
 
     c = sub.add_parser("compare", help="compare the sector rule and the track-aware analyser")
@@ -165,6 +173,9 @@ def _simulate(args: argparse.Namespace) -> int:
         args.nmea.mkdir(parents=True, exist_ok=True)
         result.write_nmea(args.nmea)
         print(f"NMEA logs written to {args.nmea}/ (times are UTC from {result.epoch_utc_s:g})")
+    if args.hfp is not None:
+        result.write_hfp(args.hfp)
+        print(f"HFP log written to {args.hfp} (times are UTC from {result.epoch_utc_s:g})")
     return 0
 
 

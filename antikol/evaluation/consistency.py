@@ -82,7 +82,8 @@ HELD_SPAN_S: Final = 30.0
 _WINDOW_S: Final = 10.0
 _MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
 _REACH_MARGIN_M: Final = 30.0
-_COURSE_SPEED_MPS: Final = 2.0  # a course below is a held or a random one
+#: Chords test a course as positioning's do: from the speed its course weighs at, m/s.
+_COURSE_SPEED_MPS: Final = PositioningConfig().min_speed_for_course_mps
 _STEP_BACK_M: Final = 10.0  # a filtered position may step back this much along the track
 _WAY_TOLERANCE_DEG: Final = 90.0
 #: A reported course this far off the chord between the vehicle's fixes is off, degrees.
@@ -243,7 +244,7 @@ class TraceConsistency:
     course_chords, course_chords_off : int
         Chords between two fixes of a vehicle that test its course as positioning tests
         it (:func:`~antikol.positioning.coursecheck.chords`: at least 15 m and at most
-        12 s apart, both ends at 2 m/s or more, as long as the run of the reported
+        12 s apart, both ends at 1.5 m/s or more, as long as the run of the reported
         speeds), and those whose bearing is :data:`COURSE_OFF_DEG` or more off the mean
         of the courses reported at their ends: a check of the feed's course field itself.
     course_off_vehicles : int

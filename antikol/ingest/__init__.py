@@ -9,8 +9,9 @@
 * :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format (its
   only reader and writer);
 * operator feeds: :mod:`antikol.ingest.hfp` (HSL-style high-frequency positioning, JSON or
-  CSV) and :mod:`antikol.ingest.gtfsrt` (GTFS-realtime VehiclePositions, needs the
-  ``feeds`` extra), sharing :mod:`antikol.ingest.feed_common`;
+  CSV; :mod:`antikol.ingest.hfp_writer` writes its JSON lines) and
+  :mod:`antikol.ingest.gtfsrt` (GTFS-realtime VehiclePositions, needs the ``feeds``
+  extra), sharing :mod:`antikol.ingest.feed_common`;
 * :mod:`antikol.ingest.feeds` — any recorded log, its format recognised; logs and feeds
   compressed with gzip, bzip2 or xz are read as their content
   (:mod:`antikol.ingest.compressed`);
@@ -31,6 +32,7 @@ from antikol.ingest.feeds import LOG_FORMATS, detect_log_format, read_log
 from antikol.ingest.gtfsrt import read_gtfs_realtime, write_feed_message
 from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.hfp import read_hfp
+from antikol.ingest.hfp_writer import write_hfp
 from antikol.ingest.nmea import NmeaReader, NmeaStats, read_nmea_directory, read_nmea_file
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.ingest.protocol import (
@@ -90,5 +92,6 @@ __all__ = [
     "read_nmea_logs",
     "read_replay_csv",
     "write_feed_message",
+    "write_hfp",
     "write_replay_csv",
 ]

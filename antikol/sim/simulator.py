@@ -25,6 +25,7 @@ from typing import Final, TypeAlias
 import numpy as np
 import numpy.typing as npt
 
+from antikol.ingest.hfp_writer import write_hfp
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.ingest.replaylog import write_replay_csv
 from antikol.report import VehicleReport
@@ -118,6 +119,23 @@ class SimulationResult:
             An unknown extra column, or one given twice.
         """
         return write_replay_csv(path, self.reports, extra_columns=extra_columns)
+
+    def write_hfp(self, path: str | os.PathLike[str]) -> Path:
+        """Write the reports as an HSL-style HFP log of JSON lines
+        (:func:`antikol.ingest.hfp_writer.write_hfp`): times ``epoch_utc_s + t``, a
+        report without a fix as ``loc`` ``N/A`` without a position, the odometer as
+        ``odo``. :func:`antikol.ingest.hfp.read_hfp` reads it back, the vehicles as
+        ``"40/<number>"`` (``T07``: ``"40/7"``).
+
+        Parameters
+        ----------
+        path : str or path-like
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        return write_hfp(path, self.reports, epoch_utc_s=self.epoch_utc_s)
 
     def write_nmea(
         self, directory: str | os.PathLike[str], *, vtg: bool = True, talker: str = "GN"
