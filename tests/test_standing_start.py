@@ -97,7 +97,7 @@ def test_a_previous_trips_course_is_overturned_and_never_confident(double, bias_
     out = [(pos.update(r), y) for r, y in _start_at_a_stop(bias_m, 180.0)]
     standing = [p for p, _ in out[:STAND_S]]
     assert not any(p.status == "confident" for p in standing if not _on_northbound(double, p))
-    # the first fixes at 2 m/s and more decide it
+    # the first fixes moving at 1.5 m/s and more decide it
     assert all(_on_northbound(double, p) for p, _ in out[STAND_S + 3 :])
 
 
