@@ -17,9 +17,11 @@ from antikol.cli import main
 from antikol.evaluation.consistency import (
     MatchedFix,
     TraceConsistency,
+    WindowBreak,
     disconnected_windows,
     match_reports,
     trace_consistency,
+    window_breaks,
 )
 from antikol.evaluation.positioning_accuracy import evaluate_fixes, positioning_accuracy
 from antikol.positioning.records import TrackPosition
@@ -103,6 +105,15 @@ def test_a_jump_onto_the_other_directions_track_is_seen(double):
     # windows are aligned to multiples of their length: in 2-s windows the jump at
     # t = 3 -> 4 falls between two and only the reversal at t = 4 -> 5 is seen
     assert disconnected_windows(net, fixes, window_s=2.0) == (3, 1)
+    # where: the window's first unconnected pair, for an analyst to look up
+    jump = WindowBreak("T1", 3.0, 4.0, north, 130.0, 1, south, 860.0, -1)
+    assert check.breaks == (jump,)
+    assert window_breaks(net, fixes, window_s=2.0) == [
+        WindowBreak("T1", 4.0, 5.0, south, 860.0, -1, south, 850.0, 1)
+    ]
+    assert check.as_dict()["breaks"] == [jump.as_dict()]
+    json.dumps(check.as_dict(), allow_nan=False)
+    assert TraceConsistency.pooled([check, check]).breaks == (jump, jump)
 
 
 @pytest.mark.parametrize("period_s", [3, 5, 10])
@@ -277,6 +288,7 @@ def test_antikol_match_on_an_hfp_log(kraków_run, tmp_path, capsys):
     assert all(row["edge_id"] and row["track_lat"] for row in matched)
     document = json.loads(out_json.read_text(encoding="utf-8"))
     assert document["records_rejected"] == 1
+    assert len(document["total"]["breaks"]) == document["total"]["disconnected_windows"]
     assert document["total"]["reports"] == len(result.reports)
     assert sorted(document["vehicles"]) == ["40/1", "40/2", "40/3", "40/4"]
     assert sum(v["reports"] for v in document["vehicles"].values()) == len(result.reports)
@@ -336,3 +348,22 @@ def test_antikol_match_says_when_the_course_is_off(kraków_run, tmp_path, capsys
     out = capsys.readouterr().out
     assert "course off: 4 of 4 vehicles" in out
     assert "chords off by 60 degrees or more" in out
+
+
+def test_antikol_match_says_where_the_windows_break():
+    from antikol.cli.match import _SHOWN_BREAKS, _where_broken
+
+    unix = WindowBreak("40/8", 1_700_000_361.0, 1_700_000_362.0, 219, 21.25, 1, 373, 2245.1, 1)
+    lines = _where_broken([unix])
+    assert lines[1].strip() == (
+        "40/8 2023-11-14T22:19:21Z -> 2023-11-14T22:19:22Z: edge 219 21.2 m (+1) "
+        "-> edge 373 2245.1 m (+1)"
+    )
+    simulated = WindowBreak("T09", 495.0, 496.0, 379, 66.7, 1, 383, 75.4, -1)
+    assert (
+        "T09 t=495.0 s -> t=496.0 s: edge 379 66.7 m (+1) -> edge 383 75.4 m (-1)"
+        in (_where_broken([simulated])[1])
+    )
+    many = _where_broken([simulated] * (_SHOWN_BREAKS + 5))
+    assert len(many) == 1 + _SHOWN_BREAKS and "all of them in --json" in many[0]
+    assert _where_broken([]) == []

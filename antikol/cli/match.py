@@ -16,6 +16,7 @@ import math
 import sys
 from collections import defaultdict
 from collections.abc import Sequence
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +56,10 @@ POSITION_CSV_COLUMNS = (
 
 #: Vehicles listed one per line before only the totals are printed.
 _SHOWN_VEHICLES = 20
+#: Windows no route connects listed on the terminal (all of them go to --json).
+_SHOWN_BREAKS = 10
+#: Report times from this on are Unix times (2001 on), printed as UTC, s.
+_UNIX_TIME_FROM_S = 1e9
 
 
 def add_parser(sub: Any) -> None:
@@ -159,6 +164,8 @@ def _match(args: argparse.Namespace) -> int:
     )
     for line in _summary(total):
         print(line)
+    for line in _where_broken(total.breaks):
+        print(line)
     if 1 < len(checks) <= _SHOWN_VEHICLES:
         _print_vehicles(checks)
     print(f"wrote {rows:,} positions to {args.positions}")
@@ -220,6 +227,30 @@ def _summary(c: Any) -> list[str]:
     else:
         lines.append("odometer: none in the log")
     return lines
+
+
+def _where_broken(breaks: Sequence[Any]) -> list[str]:
+    """The first :data:`_SHOWN_BREAKS` windows no route connects, where to look."""
+    if not breaks:
+        return []
+    lines = [f"  where (the first {min(len(breaks), _SHOWN_BREAKS)}; all of them in --json):"]
+    for b in breaks[:_SHOWN_BREAKS]:
+        lines.append(
+            f"    {b.vehicle_id} {_when(b.t_from_s)} -> {_when(b.t_to_s)}: edge {b.edge_from} "
+            f"{b.offset_from_m:.1f} m ({b.direction_from:+d}) -> edge {b.edge_to} "
+            f"{b.offset_to_m:.1f} m ({b.direction_to:+d})"
+        )
+    return lines
+
+
+def _when(t_s: float) -> str:
+    """A report time as the log gives it: UTC for Unix time, else seconds."""
+    if t_s >= _UNIX_TIME_FROM_S:
+        stamp = datetime.fromtimestamp(t_s, tz=UTC)
+        return stamp.strftime("%Y-%m-%dT%H:%M:%S") + (
+            f".{stamp.microsecond // 1000:03d}Z" if stamp.microsecond else "Z"
+        )
+    return f"t={t_s:.1f} s"
 
 
 def _print_vehicles(checks: dict[str, Any]) -> None:

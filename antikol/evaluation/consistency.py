@@ -67,9 +67,11 @@ __all__ = [
     "MatchedFix",
     "Placed",
     "TraceConsistency",
+    "WindowBreak",
     "disconnected_windows",
     "match_reports",
     "trace_consistency",
+    "window_breaks",
 ]
 
 #: A vehicle this fast or faster is moving, m/s (its course over ground is meaningful).
@@ -202,6 +204,39 @@ def match_reports(
 
 
 @dataclass(frozen=True, slots=True)
+class WindowBreak:
+    """Two successive matched positions of a vehicle in one window that no permitted route
+    connects (:func:`window_breaks`): where to look on the map.
+
+    Attributes
+    ----------
+    vehicle_id : str
+    t_from_s, t_to_s : float
+        Report times of the two positions, s.
+    edge_from, edge_to : int
+        Their edges.
+    offset_from_m, offset_to_m : float
+        Their places along those edges, m from the edge's start.
+    direction_from, direction_to : int
+        Their running directions (+1 with the edge's geometry, -1 against it).
+    """
+
+    vehicle_id: str
+    t_from_s: float
+    t_to_s: float
+    edge_from: int
+    offset_from_m: float
+    direction_from: int
+    edge_to: int
+    offset_to_m: float
+    direction_to: int
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {name: getattr(self, name) for name in self.__slots__}
+
+
+@dataclass(frozen=True, slots=True)
 class TraceConsistency:
     """How consistent a trace's matched positions are (:func:`trace_consistency`).
 
@@ -225,6 +260,8 @@ class TraceConsistency:
         10-s windows with two or more matched positions of a vehicle, and those in which
         two successive positions are connected by no permitted route
         (:func:`disconnected_windows`).
+    breaks : tuple of WindowBreak
+        Where: the first unconnected pair of each such window, in time order per vehicle.
     odometer_pairs : int
         Successive matched reports of a vehicle (at most 10 s apart) that both carry an
         odometer reading; for a vehicle whose counter is held between read-outs
@@ -285,6 +322,7 @@ class TraceConsistency:
     course_chords: int = 0
     course_chords_off: int = 0
     course_off_vehicles: int = 0
+    breaks: tuple[WindowBreak, ...] = ()
 
     @property
     def way_agrees_share(self) -> float:
@@ -318,7 +356,7 @@ class TraceConsistency:
         counts = {
             name: sum(getattr(p, name) for p in parts)
             for name in cls.__slots__
-            if name not in ("odometer_rms_m", "odometer_tolerance_m")
+            if name not in ("odometer_rms_m", "odometer_tolerance_m", "breaks")
         }
         reached = [(p.odometer_pairs - p.odometer_unreachable, p.odometer_rms_m) for p in parts]
         n = sum(k for k, _ in reached)
@@ -327,11 +365,13 @@ class TraceConsistency:
             **counts,
             odometer_rms_m=math.sqrt(squares / n) if n else math.nan,
             odometer_tolerance_m=tolerances.pop(),
+            breaks=tuple(b for p in parts for b in p.breaks),
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """Every count and share, JSON-ready (NaN as None)."""
-        fields = {name: getattr(self, name) for name in self.__slots__}
+        """Every count and share, and the breaks, JSON-ready (NaN as None)."""
+        fields: dict[str, Any] = {name: getattr(self, name) for name in self.__slots__}
+        fields["breaks"] = [b.as_dict() for b in self.breaks]
         fields.update(
             way_agrees_share=self.way_agrees_share,
             disconnected_share=self.disconnected_share,
@@ -380,7 +420,7 @@ def trace_consistency(
         if f.matched:
             moving_matched += 1
             way_agrees += _runs_reported_way(net, f)
-    windows, broken = disconnected_windows(net, fixes, window_s=window_s)
+    windows, breaks = _windows(net, fixes, window_s)
     residuals, unreachable, held = _odometer_residuals(net, fixes, window_s, odometer_tolerance_m)
     chords, chords_off, course_off = _course_chords(net, fixes)
     pairs = len(residuals) + unreachable
@@ -397,7 +437,7 @@ def trace_consistency(
         moving_way_agrees=way_agrees,
         moving_wrong_way=wrong_way,
         windows=windows,
-        disconnected_windows=broken,
+        disconnected_windows=len(breaks),
         odometer_pairs=pairs,
         odometer_agrees=int(np.count_nonzero(np.abs(residuals) <= odometer_tolerance_m)),
         odometer_unreachable=unreachable,
@@ -407,6 +447,7 @@ def trace_consistency(
         course_chords=chords,
         course_chords_off=chords_off,
         course_off_vehicles=course_off,
+        breaks=tuple(breaks),
     )
 
 
@@ -550,12 +591,41 @@ def disconnected_windows(
         one up to 10 m behind the earlier on its track). Positions flagged wrong way are
         connected over physical moves.
     """
+    windows, breaks = _windows(net, placed, window_s)
+    return windows, len(breaks)
+
+
+def window_breaks(
+    net: TrackMap, placed: Iterable[Placed], *, window_s: float = _WINDOW_S
+) -> list[WindowBreak]:
+    """Where the windows of :func:`disconnected_windows` break: per window, its first pair
+    of successive matched positions that no permitted route connects.
+
+    Parameters
+    ----------
+    net : TrackMap
+    placed : iterable of Placed
+    window_s : float
+        Window length, s.
+
+    Returns
+    -------
+    list of WindowBreak
+        By vehicle, then time.
+    """
+    return _windows(net, placed, window_s)[1]
+
+
+def _windows(
+    net: TrackMap, placed: Iterable[Placed], window_s: float
+) -> tuple[int, list[WindowBreak]]:
     per: dict[tuple[str, int], list[Placed]] = defaultdict(list)
     for ev in placed:
         if ev.matched:
             per[(ev.vehicle_id, math.floor(ev.t / window_s))].append(ev)
-    windows = broken = 0
-    for seq in per.values():
+    windows = 0
+    breaks: list[WindowBreak] = []
+    for _, seq in sorted(per.items()):
         if len(seq) < 2:
             continue
         windows += 1
@@ -563,6 +633,19 @@ def disconnected_windows(
         for p, q in itertools.pairwise(seq):
             reach = _REACH_MARGIN_M + _MAX_SPEED_MPS * max(q.t - p.t, 0.0)
             if _signed_track_distance(net, p, q, reach) is None:
-                broken += 1
+                (pe, po, pd), (qe, qo, qd) = _place(p), _place(q)
+                breaks.append(
+                    WindowBreak(
+                        p.vehicle_id,
+                        float(p.t),
+                        float(q.t),
+                        int(pe),
+                        float(po),
+                        int(pd),
+                        int(qe),
+                        float(qo),
+                        int(qd),
+                    )
+                )
                 break
-    return windows, broken
+    return windows, breaks
