@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import trackmap
@@ -60,6 +60,8 @@ _speed = st.floats(min_value=0.0, max_value=25.0, allow_nan=False)
     speed=_speed,
     with_odometer=st.booleans(),
 )
+# (20 m/s over 100.1 - 100.0 s is 1.9999... m: short of the 2 m, as the times give it)
+@example(lat=0.0, lon=0.0, run=0.0, dt=0.1, speed=20.0, with_odometer=False)
 def test_a_repeated_position_is_stale_exactly_when_the_vehicle_ran_on(
     lat, lon, run, dt, speed, with_odometer
 ):
@@ -70,8 +72,9 @@ def test_a_repeated_position_is_stale_exactly_when_the_vehicle_ran_on(
     now = dataclasses.replace(
         before, t=100.0 + dt, odometer_m=1000.0 + run if with_odometer else None
     )
-    # (the odometer's run as the readings give it, rounding and all)
-    ran = (1000.0 + run) - 1000.0 if with_odometer else speed * dt
+    # (the run as the readings give it, rounding and all: the odometer's difference, or
+    # the speed over the difference of the report times)
+    ran = (1000.0 + run) - 1000.0 if with_odometer else speed * ((100.0 + dt) - 100.0)
     assert _one(now, before, t_fix=100.0, odo_fix=odo_fix) == (ran >= _RUN_M)
 
 
