@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 import trackmap
 from antikol import VehicleReport
+from antikol.positioning import PositioningConfig
 from antikol.positioning.branching import Arrivals, hold_at_switch
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import Hypothesis
@@ -44,6 +45,7 @@ _PAST_A_JUNCTION = "an_outage_past_a_switch_and_a_junction.json"
 _BEYOND_RADIUS = "a_fix_beyond_the_search_radius_of_a_learnt_bias.json"
 _BEHIND_LINEAGE = "behind_its_lineage_past_a_switch_and_a_junction.json"
 _TOSS_AT_SWITCH = "an_outage_at_a_switch_then_the_other_branch.json"
+_LATE_BRAKING = "a_late_receiver_braking_beside_a_stub.json"
 
 
 @pytest.fixture(scope="module")
@@ -451,12 +453,12 @@ def test_carried_over_a_node_a_hypothesis_remembers_the_track_it_came_by(merge_n
     assert int(fleet.hv[0, 1]) == -1
 
 
-def _replay_recorded(net, name: str, vehicle_id: str) -> list:
+def _replay_recorded(net, name: str, vehicle_id: str, config=None) -> list:
     """The positions of a recorded fix sequence (``tests/data/<name>``), one by one, as
     placed (a recording starts the vehicle afresh: its first positions are shown later,
     see ``tests/test_showing.py``)."""
     data = json.loads((Path(__file__).parent / "data" / name).read_text())
-    pos = Positioner(net)
+    pos = Positioner(net, config)
     out = []
     for t, lat, lon, speed, course, odometer, quality in data["reports"]:
         report = VehicleReport(
@@ -814,8 +816,12 @@ def test_a_belief_that_has_just_swung_is_not_carried_as_sure_through_an_outage()
     # flagged without a fix, t = 542-581 s): dead-reckoned on the new belief, the tram was
     # reported confident on 1093 for a minute (found by benchmarks/positioning_accuracy.py
     # --gps late, 60 of its 93 confident-and-wrong estimates)
+    # Since the hypotheses expect a late fix behind the tram (latency times speed), the
+    # belief no longer swings here; the rule is checked with the latency left out.
     net = trackmap.load_default()
-    out = _replay_recorded(net, _SWUNG_BELIEF, "T11")
+    assert all(p.edge_id != 1093 for p in _replay_recorded(net, _SWUNG_BELIEF, "T11"))
+    no_latency = PositioningConfig(fix_latency_sigma_s=0.0)
+    out = _replay_recorded(net, _SWUNG_BELIEF, "T11", no_latency)
     assert any(p.edge_id == 1093 for p in out if p.t >= 540.0)  # the belief did swing
     assert all(p.status != "confident" for p in out if p.edge_id == 1093)
     # while the belief held, it was confident (the rule waits for a second match only)
@@ -853,3 +859,19 @@ def test_a_coin_toss_at_a_switch_gives_way_before_it_is_shown():
     past = [p for p in out if 322.0 <= p.t <= 332.0]  # (219 until 332 s)
     assert all(p.edge_id in (373, 219) for p in past), [(p.t, p.edge_id) for p in past]
     _assert_connected(net, [p for p in out if p.matched])
+
+
+def test_a_late_receiver_braking_into_a_stop_stays_on_its_track():
+    # street GPS, a receiver whose output is 2 s old (learnt: 1.86 s): T06 brakes from 15
+    # m/s into a stop at the end of 804; beside it, 4 m away, runs a stub (690) that 804
+    # does not reach. The fix lies latency x speed behind the tram, a lag that braking
+    # shrinks by 2 m a second: 804's hypothesis, whose lag filter still held the lag of
+    # the run, paid 3-5 nats a fix for it (along residuals 8-11 m), and the tram was
+    # relocated onto the stub at 3 m/s and stood there confident for 25 s (26 of that run's
+    # 30 confident-and-wrong estimates, benchmarks/positioning_accuracy.py --gps late
+    # --gps-set latency_s=2)
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _LATE_BRAKING, "T06")
+    stop = [p for p in out if 148.0 <= p.t <= 178.0]
+    assert stop and all(p.edge_id == 804 for p in stop)
+    assert not any(p.edge_id == 690 for p in out)

@@ -244,7 +244,9 @@ class PositioningConfig:
         when it sends them): the along-track filter takes the fix as the place the vehicle
         had then and adds the distance run since at the reported speed. The latency is
         learnt per vehicle from its run (:mod:`antikol.positioning.latency`), from this
-        prior mean and standard deviation; a standard deviation of 0 keeps the mean.
+        prior mean and standard deviation; a standard deviation of 0 keeps the mean. The
+        track hypotheses expect each fix that far behind (latency times speed) once the
+        learnt latency is two standard deviations above zero.
     stale_fix_run_m : float
         A report that repeats the previous report's coordinates exactly after the vehicle
         ran this far since its last fix (by its odometer, else its speeds) is no fix: the

@@ -171,14 +171,17 @@ def fix_error_update(
     tx: FloatArray,
     ty: FloatArray,
     noise_var_m2: FloatArray,
+    expected_lag_m: FloatArray | float = 0.0,
 ) -> tuple[FixErrorState, Innovation, Innovation]:
     """Fuse a fix: its offset ``lateral_m`` along the unit normal ``(nx, ny)`` and its
     place along the track, whose unit tangent in the running direction is ``(tx, ty)``.
 
     The lateral offset is the bias' normal component plus white noise; the fix's place
     along the track is the true place plus the bias' tangential component plus white
-    noise, so the lag's measurement is ``0 = ad + t·b + noise`` (the lag is kept relative
-    to the fix). Each part has white noise of variance ``noise_var_m2``.
+    noise, less ``expected_lag_m`` for a fix that is late (the run since it was taken:
+    latency times speed), so the lag's measurement is ``expected_lag_m = ad + t·b +
+    noise`` (the lag is kept relative to the fix). Each part has white noise of variance
+    ``noise_var_m2``.
 
     Returns
     -------
@@ -189,5 +192,7 @@ def fix_error_update(
     """
     zero = np.zeros_like(nx)
     mid, lateral = _measure(st, zero, nx, ny, lateral_m - (nx * st.bx + ny * st.by), noise_var_m2)
-    post, along = _measure(mid, 1.0, tx, ty, -(mid.ad + tx * mid.bx + ty * mid.by), noise_var_m2)
+    post, along = _measure(
+        mid, 1.0, tx, ty, expected_lag_m - (mid.ad + tx * mid.bx + ty * mid.by), noise_var_m2
+    )
     return post, lateral, along

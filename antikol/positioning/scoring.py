@@ -40,6 +40,7 @@ from antikol.positioning.fixerror import (
     fix_error_update,
 )
 from antikol.positioning.fleet import FleetState
+from antikol.positioning.latency import MAX_LATENCY_S
 from antikol.positioning.odometerresolution import odometer_resolution, quantisation_sigma
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.report import VehicleReport
@@ -322,16 +323,28 @@ def score_fixes(
     prior = fix_error_predict(
         parent, dt[pcv], bias_sigma[pcv], c.bias_tau_s, shift, run_var
     ).forget_lag(rev_ok)
+    # a late fix lies behind the vehicle by its speed times its latency
+    # (:mod:`~antikol.positioning.latency`), a lag that braking shrinks faster than the
+    # lag's own filter follows (a 2-s receiver's tram braking into a stop lost its track
+    # to a stub beside it). The latency counts from where it is surely above zero (two
+    # standard deviations): one learnt from the noise of a receiver without any moved
+    # every hypothesis' lag and cost the referee's selectivity
+    learnt = fleet.lt[rows] - 2.0 * np.sqrt(np.maximum(fleet.lptt[rows], 0.0))
+    latency = np.where(np.isfinite(learnt), np.clip(learnt, 0.0, MAX_LATENCY_S), c.fix_latency_s)
+    late_m = latency * speed
     post, lat_i, along_i = fix_error_update(
-        prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv]
-    )
+        prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv],
+        late_m[pcv],
+    )  # fmt: skip
     lat_ll = _mixture_ll(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight, floor[pc])
     # the course is the heading where the hypothesis puts the vehicle, not where the fix
     # projects: in a tight curve a fix metres off along the track projects where the track
     # turns another way, and the hypothesis that knows its place should not pay for that
+    # (where it was when the fix was taken: a late receiver's course is as late)
     pair_course_ll = _placed_course_ll(
-        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad, course[pcv],
-        course_sigma[pcv], use_course[pcv], c.course_outlier_weight, course_ll[pc],
+        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad - late_m[pcv],
+        course[pcv], course_sigma[pcv], use_course[pcv], c.course_outlier_weight,
+        course_ll[pc],
     )  # fmt: skip
     along_ll = _mixture_ll(
         along_i.residual_m, along_i.variance_m2, c.outlier_weight, floor[pc]
@@ -355,7 +368,7 @@ def score_fixes(
 
     # fresh starts: the emission alone, with the stationary bias prior
     start = FixErrorState.start(len(cs), bias_sigma[cv])
-    post0, lat0_i, _ = fix_error_update(start, nx, ny, lateral, tx, ty, noise_var)
+    post0, lat0_i, _ = fix_error_update(start, nx, ny, lateral, tx, ty, noise_var, late_m[cv])
     lat0 = _mixture_ll(lat0_i.residual_m, lat0_i.variance_m2, c.outlier_weight, floor)
     score0 = lat0 + static_ll + np.where(wrong, c.wrong_way_entry_log_prior, 0.0)
 
