@@ -332,9 +332,10 @@ def score_fixes(
     learnt = fleet.lt[rows] - 2.0 * np.sqrt(np.maximum(fleet.lptt[rows], 0.0))
     latency = np.where(np.isfinite(learnt), np.clip(learnt, 0.0, MAX_LATENCY_S), c.fix_latency_s)
     late_m = latency * speed
+    pair_late_m = late_m[pcv]
     post, lat_i, along_i = fix_error_update(
         prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv],
-        late_m[pcv],
+        pair_late_m,
     )  # fmt: skip
     lat_ll = _mixture_ll(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight, floor[pc])
     # the course is the heading where the hypothesis puts the vehicle, not where the fix
@@ -342,7 +343,7 @@ def score_fixes(
     # turns another way, and the hypothesis that knows its place should not pay for that
     # (where it was when the fix was taken: a late receiver's course is as late)
     pair_course_ll = _placed_course_ll(
-        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad - late_m[pcv],
+        headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad - pair_late_m,
         course[pcv], course_sigma[pcv], use_course[pcv], c.course_outlier_weight,
         course_ll[pc],
     )  # fmt: skip
