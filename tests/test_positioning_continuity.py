@@ -46,6 +46,7 @@ _BEYOND_RADIUS = "a_fix_beyond_the_search_radius_of_a_learnt_bias.json"
 _BEHIND_LINEAGE = "behind_its_lineage_past_a_switch_and_a_junction.json"
 _TOSS_AT_SWITCH = "an_outage_at_a_switch_then_the_other_branch.json"
 _LATE_BRAKING = "a_late_receiver_braking_beside_a_stub.json"
+_STRAY_PAST_SHORT_EDGE = "a_stray_fix_ahead_past_a_short_branch_edge.json"
 
 
 @pytest.fixture(scope="module")
@@ -875,3 +876,18 @@ def test_a_late_receiver_braking_into_a_stop_stays_on_its_track():
     stop = [p for p in out if 148.0 <= p.t <= 178.0]
     assert stop and all(p.edge_id == 804 for p in stop)
     assert not any(p.edge_id == 690 for p in out)
+
+
+def test_a_stray_fix_ahead_on_a_branch_is_judged_by_the_course_where_the_tram_is():
+    # street GPS read back from an HFP log (antikol simulate ... --seed 19 --hfp): 40/8
+    # takes the left branch (700, 15 m long, curving from 57 to 29 degrees) of a switch at
+    # 2.7 m/s; the other branch (135) runs on straight at 61 degrees. At t = 866 s one fix
+    # lands 10 m north: it projects onto 702, past the end of 700, where the track heads
+    # 10 degrees. The hypothesis' along-track filter put the tram back on 700 (heading
+    # about 40, the course read 49), but the course was compared on 702 at its start (21
+    # degrees), and 135 took 0.96 from the one fix: the tram was shown on 135, then moved
+    # across to 700, a step that no route connects
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _STRAY_PAST_SHORT_EDGE, "40/8")
+    assert not any(p.edge_id == 135 for p in out)
+    _assert_connected(net, [p for p in out if p.matched])

@@ -107,6 +107,11 @@ class ReachTable:
         #: the track headings every metre (the course's comparison, built once with these)
         self.headings = HeadingProfile(track_map)
         self._physical = self._distances(track_map.traversal_any.edges())
+        #: per state id: whether the track runs on to one state only at its end (no facing
+        #: switch there), whatever the permitted directions
+        self.unbranched_exit: npt.NDArray[np.bool_] = np.ones(self.n_states, dtype=bool)
+        for (eu, du), n_out in track_map.traversal_any.out_degree():
+            self.unbranched_exit[int(state_id(eu, du))] = n_out <= 1
         self._permitted = self._distances(track_map.traversal.edges())
         # steps back (a standing vehicle's fixes scatter around it) cross only nodes where
         # the track behind is unambiguous: stepping back from past a trailing switch onto

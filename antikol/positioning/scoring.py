@@ -42,7 +42,7 @@ from antikol.positioning.fixerror import (
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.latency import MAX_LATENCY_S
 from antikol.positioning.odometerresolution import odometer_resolution, quantisation_sigma
-from antikol.positioning.reach import ReachTable, state_id
+from antikol.positioning.reach import ReachTable, state_direction, state_edge, state_id
 from antikol.report import VehicleReport
 
 __all__ = ["Scored", "score_fixes"]
@@ -342,10 +342,14 @@ def score_fixes(
     # projects: in a tight curve a fix metres off along the track projects where the track
     # turns another way, and the hypothesis that knows its place should not pay for that
     # (where it was when the fix was taken: a late receiver's course is as late)
+    # (a place behind the start of the candidate's edge is on the edge the hypothesis came
+    # from: a fix metres ahead past a switch projects into the branch's curve)
     pair_course_ll = _placed_course_ll(
         headings, reach.lengths, edge[pc], direction[pc], co[pc], post.ad - pair_late_m,
         course[pcv], course_sigma[pcv], use_course[pcv], c.course_outlier_weight,
         course_ll[pc],
+        parent=(pss, po, np.where(rev_ok | ~np.isfinite(dist), np.nan, dist)),
+        parent_unbranched=reach.unbranched_exit,
     )  # fmt: skip
     along_ll = _mixture_ll(
         along_i.residual_m, along_i.variance_m2, c.outlier_weight, floor[pc]
@@ -552,18 +556,43 @@ def _placed_course_ll(
     use: BoolArray,
     outlier_weight: float,
     at_fix_ll: FloatArray,
+    *,
+    parent: tuple[IntArray, FloatArray, FloatArray] | None = None,
+    parent_unbranched: BoolArray | None = None,
 ) -> FloatArray:
     """The course's log-density against the track heading at the hypothesis' own place:
     the fix's projection ``offset_m`` moved by the filtered lag ``lag_m`` (m, in the
-    running direction; kept on the edge), where it moved by more than
-    :data:`PLACE_MOVE_M`; ``at_fix_ll`` elsewhere."""
+    running direction), where it moved by more than :data:`PLACE_MOVE_M`; ``at_fix_ll``
+    elsewhere.
+
+    A place behind the start of the edge is looked up on the previous hypothesis' edge
+    where it lies there and that edge runs on to no other track (``parent_unbranched``,
+    by state id): ``parent`` gives its track state, its offset (m) and the signed distance
+    from it to ``offset_m`` (m; NaN: not known). Behind a facing switch the place would
+    say nothing of the branch the hypothesis is on, and the branch is what its course
+    decides. Elsewhere the place is kept on the edge."""
     moved = use & (np.abs(lag_m) > PLACE_MOVE_M) & (np.abs(lag_m) < MAX_PLACE_MOVE_M)
     if not moved.any():
         return at_fix_ll
     idx = np.flatnonzero(moved)
     e = edge[idx]
-    place = np.clip(offset_m[idx] + direction[idx] * lag_m[idx], 0.0, lengths[e])
-    heading = headings(e, place, direction[idx])
+    d = direction[idx]
+    along = offset_m[idx] + d * lag_m[idx]
+    place = np.clip(along, 0.0, lengths[e])
+    heading = headings(e, place, d)
+    if parent is not None:
+        p_state, p_offset, p_dist = (np.asarray(a)[idx] for a in parent)
+        p_edge, p_dir = state_edge(p_state), state_direction(p_state)
+        run = p_dist + lag_m[idx]  # from the previous place to the hypothesis' own, m
+        left = np.where(p_dir > 0, lengths[p_edge] - p_offset, p_offset)
+        back = (p_edge != e) & (np.where(d > 0, along < 0.0, along > lengths[e]))
+        back &= (run >= 0.0) & (run <= left)  # (NaN: False)
+        if parent_unbranched is not None:
+            back &= parent_unbranched[p_state]
+        if back.any():
+            b = np.flatnonzero(back)
+            heading = heading.copy()
+            heading[b] = headings(p_edge[b], p_offset[b] + p_dir[b] * run[b], p_dir[b])
     diff = (course_deg[idx] - heading + 180.0) % 360.0 - 180.0
     out = at_fix_ll.copy()
     out[idx] = _course_ll(diff, sigma_deg[idx], outlier_weight)
