@@ -162,3 +162,59 @@ def test_a_bias_that_changes_on_a_platform_track_does_not_move_the_tram_across(b
         assert all(m.position.status == "confident" for m in after)
     else:
         assert across and broken >= 1  # jumped across
+
+
+@pytest.fixture(scope="module")
+def long_pair(tmp_path_factory):
+    """Two one-way tracks 5 m apart for 800 m (a switch at y = 0, a join at y = 820 m),
+    then one track on north."""
+    b = OsmBuilder()
+    split, join = b.node(0.0, 0.0), b.node(0.0, 820.0)
+    b.line([(0.0, -300.0), split], oneway="yes")
+    b.line([split, (0.0, 400.0), join], oneway="yes")
+    b.line([split, (5.0, 10.0), (5.0, 810.0), join], oneway="yes")
+    b.line([join, (0.0, 1200.0)], oneway="yes")
+    return trackmap.build(b.write_xml(tmp_path_factory.mktemp("long") / "long.osm"))
+
+
+@pytest.mark.parametrize(("y", "held"), [(780.0, True), (500.0, False), (100.0, False)])
+def test_long_parallel_tracks_are_held_only_near_where_they_meet(long_pair, y, held):
+    # what counts is how far ahead of the two places the tracks meet, not of their starts
+    # (800 m back): 40 m before the join a jump across buys at most 40 m on the right one
+    net = long_pair
+    siblings = SameWaySiblings(net, ReachTable.for_map(net, reach_m=400.0), meet_within_m=50.0)
+    west, w_off = _state_at(net, 0.0, y)
+    east, e_off = _state_at(net, 5.0, y)
+    assert siblings.hold([east], [e_off], [west], [w_off]).tolist() == [held]
+    assert siblings.hold([west], [w_off], [east], [e_off]).tolist() == [held]
+
+
+def test_by_default_the_bias_swinging_before_two_tracks_meet_moves_no_tram_across(long_pair):
+    # a tram starts between the two tracks (its fixes 2.5 m east of the west one, as near
+    # one as the other) and is shown on one; 60 m before the join its fixes swing another
+    # 2.5 m east and the evidence moves to the other one. The default hold keeps it on its
+    # track to the join, with no window that no permitted route connects; without the hold
+    # it jumps across
+    net = long_pair
+    clean = reports_along(
+        "T", [(0.0, -300.0), (0.0, 1200.0)], start_m=940.0, speed_mps=SPEED_MPS,
+        t=np.arange(0.0, 80.0), frame=FRAME,
+    )  # fmt: skip
+    rng = np.random.default_rng(1)
+    reports = []
+    for r in clean:
+        x, y = (float(v) for v in FRAME.to_local(r.lon, r.lat))
+        x += (2.5 if y < 760.0 else 5.0 if y < 820.0 else 0.0) + rng.normal(0.0, 0.4)
+        lon, lat = FRAME.to_lonlat(x, y + rng.normal(0.0, 0.4))
+        reports.append(dataclasses.replace(r, lon=float(lon), lat=float(lat)))
+    pair = {_edge_at(net, 0.0, 600.0), _edge_at(net, 5.0, 600.0)}
+    for config, jumps in (
+        (PositioningConfig(), False),
+        (PositioningConfig(same_way_hold_m=0), True),
+    ):
+        matched = match_reports(net, reports, config=config)
+        on_pair = [m.edge_id for m in matched if m.matched and m.edge_id in pair]
+        _, broken = disconnected_windows(net, matched)
+        assert on_pair
+        assert (len(set(on_pair)) == 2) == jumps
+        assert (broken >= 1) == jumps

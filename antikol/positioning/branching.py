@@ -19,9 +19,11 @@ one lies on a branch of it that is not decided either. A position carried past a
 the along-track filter before any hypothesis has passed it is undecided too.
 
 Once a vehicle has been reported more than ``STEP_BACK_M`` past a switch on a branch, it is
-held at that switch again (``released``) only when that branch has lost the majority:
-stepping back to the switch breaks the chain of reported positions as much as a branch
-change does, and a share wavering around the threshold would step back and forth.
+held at that switch again (``released``) only when that branch has fallen clearly below
+even odds (``RELEASED_SHARE``): stepping back to the switch breaks the chain of reported
+positions as much as a branch change does, and a share wavering around a half would step
+back and forth (a simulated HFP log had a branch at 0.91, then 0.499, then 0.73: reported
+on it, at the switch 21 m back, and on it again).
 """
 
 from __future__ import annotations
@@ -45,8 +47,9 @@ HOLD_M = 40.0
 #: A branch holding this share of the branches' probability is decided.
 DECIDED_SHARE = 0.9
 #: Once reported past a switch, the vehicle is held at it again only when the branch it
-#: was reported on holds less than this share.
-RELEASED_SHARE = 0.5
+#: was reported on holds less than this share (below a half: a branch that wavers around
+#: even odds keeps being reported; the other one takes over at ``switch_probability``).
+RELEASED_SHARE = 0.35
 #: A step back to a switch it was reported past this short is no break in the chain of
 #: reported positions (what :func:`~antikol.evaluation.positioning_accuracy.disconnected_windows`
 #: allows), m: the hysteresis of ``RELEASED_SHARE`` applies beyond it.

@@ -164,12 +164,14 @@ class PositioningConfig:
         standing tram cannot change track, while the drift of its fixes (a bias that
         changes at a standstill) builds up evidence that is not there.
     same_way_hold_m : float
-        Opt-in (0: off). The lineage is kept, however decisive another hypothesis, where
-        that one lies on a track beside the lineage's (within 10 m) that runs the same way
-        and meets it again within this distance ahead of both, m (platform tracks, a
-        passing loop), once the vehicle has been reported on the lineage's track: a jump
-        across breaks the chain of reported positions. It trades right-track estimates for
-        that continuity (:mod:`antikol.positioning.siblings`; README, Known limitations).
+        The lineage is kept, however decisive another hypothesis, where that one lies on a
+        track beside the lineage's (within 10 m) that runs the same way and meets it again
+        within this distance ahead of both places, m (platform tracks, a passing loop, the
+        end of two parallel tracks), once the vehicle has been reported on the lineage's
+        track: a jump across breaks the chain of reported positions and buys at most this
+        distance on the right one of two tracks that lead to the same place. Longer holds
+        trade right-track estimates for that continuity (:mod:`antikol.positioning.siblings`;
+        README, Known limitations); 0 turns it off.
     max_speed_mps, max_accel_mps2 : float
         Physical limits used to reject impossible reports (m/s, m/s²).
     jump_margin_m : float
@@ -292,7 +294,7 @@ class PositioningConfig:
     sure_probability: float = 0.99
     switch_probability: float = 0.75
     standing_switch_probability: float = 0.95
-    same_way_hold_m: float = 0.0
+    same_way_hold_m: float = 50.0
     max_speed_mps: float = 30.0
     max_accel_mps2: float = 3.5
     jump_margin_m: float = 30.0

@@ -16,22 +16,26 @@ the jump buys little and costs much:
 * a jump breaks the chain of reported positions, which a user reads as a vehicle that
   changed track where no switch is.
 
-With :attr:`PositioningConfig.same_way_hold_m
-<antikol.positioning.config.PositioningConfig.same_way_hold_m>` set, the lineage is held on
-its own track there until the two tracks meet, where its hypotheses and the others join
-again — once the vehicle has been reported on it (a vehicle still held at the switch before
-the two tracks moves to the best at no break). Nothing else changes: the reported
+:attr:`PositioningConfig.same_way_hold_m
+<antikol.positioning.config.PositioningConfig.same_way_hold_m>` is how far ahead of the
+vehicle such tracks must meet for the lineage to be held on its own track until they do,
+where its hypotheses and the others join again — once the vehicle has been reported on it
+(a vehicle still held at the switch before the two tracks moves to the best at no break).
+The distance is measured from where the two hypotheses put the vehicle, so on two long
+parallel tracks only their last stretch counts. Nothing else changes: the reported
 probability is the held lineage's own (a held position reads ``ambiguous`` once the
 evidence has moved), and the analysis weighs every hypothesis whichever one is reported.
 
-It is off by default because it costs more than it saves where the exact track counts: a
-tram put on the wrong one of two such tracks stays there, however sure the evidence, to
-their end, where the positioner used to correct it within a few seconds (a jump). On the
-street receiver (``python benchmarks/positioning_accuracy.py --gps urban --set
-same_way_hold_m=200``, seeds 4–6) it took the wrong estimates past switches from 7 to 35
-of 779 to save one of three windows no permitted route connects. A user who counts a
-same-way track as right, and a break in the chain of positions as a failure (a display of
-where the trams are, a trace checked without the exact track), may want it.
+By default it is 50 m: in the last 50 m before two such tracks meet, the jump buys at most
+50 m on the right one of two tracks that lead to the same place. Simulated HFP logs showed
+what it costs there: a tram on the wrong one of two tracks 5 m apart for a kilometre was
+moved to the other one 37 m before they met, on a swing of the bias, and back on the next
+(two windows no permitted route connects). A longer hold trades more: a tram put on the
+wrong one of two such tracks stays there, however sure the evidence, to their end, where
+the positioner would correct it within a few seconds (a jump); see the README's Known
+limitations for what 200 m costs and saves. A user who counts a same-way track as right,
+and a break in the chain of positions as a failure (a display of where the trams are, a
+trace checked without the exact track), may want it longer; 0 turns it off.
 
 >>> import numpy as np, trackmap
 >>> from trackmap.synthetic import SyntheticNetwork
@@ -72,6 +76,8 @@ SIDE_BY_SIDE_M: Final = 10.0
 #: Tracks whose headings differ by more than this at the two places are not side by
 #: side (a branch leaving at an angle), degrees.
 _MAX_HEADING_DIFFERENCE_DEG: Final = 30.0
+#: Answers kept before the cache starts afresh (pairs of places to the metre).
+_MAX_KEPT: Final = 100_000
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -93,18 +99,19 @@ class SameWaySiblings:
 
     Notes
     -----
-    Two track states are siblings when some route ahead of each reaches a common track
-    within ``meet_within_m`` and the two routes up to it stay within ``SIDE_BY_SIDE_M``
-    of each other all the way (their Hausdorff distance): the two branches of a facing
-    switch lie that close only for their first metres, and are not siblings unless they
-    also run on side by side. The answer is per pair of states, kept once found.
+    Two places are siblings when some route ahead of each reaches a common track within
+    ``meet_within_m`` of both places and the two routes up to it stay within
+    ``SIDE_BY_SIDE_M`` of each other all the way (their Hausdorff distance): the two
+    branches of a facing switch lie that close only for their first metres, and are not
+    siblings unless they also run on side by side. The answer is kept per pair of states
+    and pair of whole metres of their offsets.
     """
 
     def __init__(self, net: Any, reach: ReachTable, meet_within_m: float) -> None:
         self.net = net
         self.reach = reach
         self.meet_within_m = min(float(meet_within_m), reach.reach_m)
-        self._pairs: dict[tuple[int, int], bool] = {}
+        self._pairs: dict[tuple[int, int, int, int], bool] = {}
 
     def hold(
         self,
@@ -136,8 +143,9 @@ class SameWaySiblings:
         -------
         ndarray of bool
             True where the two places lie side by side (within ``SIDE_BY_SIDE_M``, headings
-            within 30 degrees), neither lies ahead of the other within ``meet_within_m`` (a
-            move there is no jump), and their tracks are siblings (see Notes).
+            within 30 degrees) on tracks that permit this running direction only, neither
+            lies ahead of the other within ``meet_within_m`` (a move there is no jump), and
+            their tracks are siblings (see Notes).
         """
         bs = np.atleast_1d(np.asarray(best_state, dtype=np.int64))
         bo = np.atleast_1d(np.asarray(best_offset_m, dtype=float))
@@ -155,6 +163,9 @@ class SameWaySiblings:
         )
         near &= np.cos(np.radians(turn)) >= math.cos(math.radians(_MAX_HEADING_DIFFERENCE_DEG))
         near &= bs != ls
+        # one-way tracks only: two tracks that permit both ways (a double track whose
+        # directions the map does not give) may be the two directions' tracks
+        near &= ~self.reach.allowed[bs ^ 1] & ~self.reach.allowed[ls ^ 1]
         if reported is not None and lineage_before is not None:
             before = np.atleast_1d(np.asarray(lineage_before, dtype=np.int64)).tolist()
             near &= np.array(
@@ -172,7 +183,7 @@ class SameWaySiblings:
             self.reach.ahead(bs[k], bo[k], ls[k], lo[k], physical=False) > within
         )
         for i in k[apart].tolist():
-            out[i] = self._siblings(int(ls[i]), int(bs[i]))
+            out[i] = self._siblings(int(ls[i]), float(lo[i]), int(bs[i]), float(bo[i]))
         return out
 
     def asker(
@@ -211,30 +222,33 @@ class SameWaySiblings:
 
         return same_way
 
-    def _siblings(self, a: int, b: int) -> bool:
-        key = (min(a, b), max(a, b))
+    def _siblings(self, a: int, a_offset_m: float, b: int, b_offset_m: float) -> bool:
+        here = ((a, math.floor(a_offset_m)), (b, math.floor(b_offset_m)))
+        (sa, oa), (sb, ob) = sorted(here)
+        key = (sa, oa, sb, ob)
         found = self._pairs.get(key)
         if found is None:
-            found = self._pairs[key] = self._meet_beside(*key)
+            if len(self._pairs) >= _MAX_KEPT:
+                self._pairs.clear()
+            found = self._pairs[key] = self._meet_beside(sa, float(oa), sb, float(ob))
         return found
 
-    def _ways(self, state: int) -> list[Path]:
-        """The permitted routes ahead of a state's entry, ``meet_within_m`` long."""
+    def _ways(self, state: int, offset_m: float) -> list[Path]:
+        """The permitted routes ahead of a place, ``meet_within_m`` long."""
         edge, direction = int(state_edge(state)), int(state_direction(state))
-        entry = 0.0 if direction == 1 else self.net.edge_length(edge)
-        return self.net.paths_ahead(edge, entry, direction, self.meet_within_m)
+        offset_m = min(max(offset_m, 0.0), self.net.edge_length(edge))
+        return self.net.paths_ahead(edge, offset_m, direction, self.meet_within_m)
 
-    def _meet_beside(self, a: int, b: int) -> bool:
-        ways_a, ways_b = self._ways(a), self._ways(b)
+    def _meet_beside(self, a: int, a_offset_m: float, b: int, b_offset_m: float) -> bool:
+        ways_a, ways_b = self._ways(a, a_offset_m), self._ways(b, b_offset_m)
         for way_a in ways_a:
-            on_a = {(st.edge_id, int(st.direction)): st for st in way_a.steps}
+            on_a = {(st.edge_id, int(st.direction)): st for st in way_a.steps[1:]}
             for way_b in ways_b:
                 meet = next(
                     (
                         (on_a[key].start_m, st.start_m)
                         for st in way_b.steps[1:]
                         if (key := (st.edge_id, int(st.direction))) in on_a
-                        and on_a[key].start_m > 0.0
                     ),
                     None,
                 )
