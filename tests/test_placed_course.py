@@ -96,3 +96,40 @@ def test_an_exit_is_unbranched_where_one_state_follows(krakow_map, edge, forward
 @pytest.fixture(scope="module")
 def krakow_map() -> trackmap.TrackMap:
     return trackmap.load_default()
+
+
+@settings(max_examples=40, deadline=None)
+@given(pick=st.integers(0, 10_000), way=st.integers(0, 10), run_m=st.floats(0.0, 120.0))
+def test_the_way_in_is_the_one_joining_track_a_run_reaches(krakow_map, pick, way, run_m):
+    # into a track that several join before: from a place two edges back, the way in is
+    # the joining track that a run of run_m reaches from the end of the place's edge
+    # (networkx's shortest paths over the same moves as the reference), and none when
+    # several or none do
+    import networkx as nx
+
+    reach = ReachTable.for_map(krakow_map, reach_m=300.0)
+    joined = np.flatnonzero(reach.ways_in_count > 1)
+    to = int(joined[pick % len(joined)])
+    graph = krakow_map.traversal_any
+    state = {int(state_id(e, int(d))): (e, d) for e, d in graph.nodes()}
+    ways = [int(state_id(e, int(d))) for e, d in graph.predecessors(state[to])]
+    q = ways[way % len(ways)]
+    before = [int(state_id(e, int(d))) for e, d in graph.predecessors(state[q])]
+    if not before:
+        return
+    frm = before[0]
+
+    def gap_m(w: int) -> float:
+        # the track from the end of frm to the start of w: the edges between them
+        try:
+            path = nx.shortest_path(
+                graph, state[frm], state[w],
+                weight=lambda u, v, _: krakow_map.edge_length(v[0]),
+            )  # fmt: skip
+        except nx.NetworkXNoPath:
+            return math.inf
+        return sum(krakow_map.edge_length(e) for e, _ in path[1:-1])
+
+    reached = [w for w in ways if w == frm or gap_m(w) <= run_m]
+    got = int(reach.way_in(np.array([frm]), np.array([to]), np.array([run_m]))[0])
+    assert got == (reached[0] if len(reached) == 1 else -1)

@@ -47,6 +47,7 @@ _BEHIND_LINEAGE = "behind_its_lineage_past_a_switch_and_a_junction.json"
 _TOSS_AT_SWITCH = "an_outage_at_a_switch_then_the_other_branch.json"
 _LATE_BRAKING = "a_late_receiver_braking_beside_a_stub.json"
 _STRAY_PAST_SHORT_EDGE = "a_stray_fix_ahead_past_a_short_branch_edge.json"
+_OVER_SHORT_EDGE = "a_stray_fix_over_a_short_edge_past_a_junction.json"
 
 
 @pytest.fixture(scope="module")
@@ -902,3 +903,18 @@ def test_a_stray_fix_ahead_on_a_branch_is_judged_by_the_course_where_the_tram_is
     out = _replay_recorded(net, _STRAY_PAST_SHORT_EDGE, "40/8")
     assert not any(p.edge_id == 135 for p in out)
     _assert_connected(net, [p for p in out if p.matched])
+
+
+def test_a_tram_carried_over_a_short_edge_past_a_junction_steps_back_when_it_stands():
+    # street GPS read back from an HFP log (antikol simulate ... --seed 17 --hfp): 40/3
+    # brakes to a stop on 848, a 9.5-m edge before a trailing junction where 848 and 1133
+    # join into 477. One stray fix 18 m ahead carried its hypothesis over 848 onto 477;
+    # the way it came in was not kept (it had run over a short edge), and a standing
+    # hypothesis steps back over a junction only the way it came: its fixes, behind 477's
+    # start, were rejected until it started afresh, on the other direction's track (499),
+    # and it moved across to 477 when it left (two windows no route connects)
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _OVER_SHORT_EDGE, "40/3")
+    assert not any(p.edge_id == 499 for p in out)
+    assert all(p.matched for p in out[5:])
+    _assert_connected(net, out[5:])

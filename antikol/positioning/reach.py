@@ -112,6 +112,16 @@ class ReachTable:
         self.unbranched_exit: npt.NDArray[np.bool_] = np.ones(self.n_states, dtype=bool)
         for (eu, du), n_out in track_map.traversal_any.out_degree():
             self.unbranched_exit[int(state_id(eu, du))] = n_out <= 1
+        # the states each state is entered from (a trailing switch: several), -1 padded
+        ways_in: list[list[int]] = [[] for _ in range(self.n_states)]
+        for (eu, du), (ev, dv) in track_map.traversal_any.edges():
+            ways_in[int(state_id(ev, dv))].append(int(state_id(eu, du)))
+        width = max((len(w) for w in ways_in), default=0)
+        self._ways_in = np.full((self.n_states, max(width, 1)), -1, dtype=np.int64)
+        for k, w in enumerate(ways_in):
+            self._ways_in[k, : len(w)] = w
+        #: per state id: how many states it is entered from
+        self.ways_in_count: IntArray = (self._ways_in >= 0).sum(axis=1)
         self._permitted = self._distances(track_map.traversal.edges())
         # steps back (a standing vehicle's fixes scatter around it) cross only nodes where
         # the track behind is unambiguous: stepping back from past a trailing switch onto
@@ -217,6 +227,20 @@ class ReachTable:
         to = np.asarray(to, dtype=np.int64)
         table = self._physical if physical else self._permitted
         return np.asarray(table.lookup(frm, to, self.n_states) < 1e-5)
+
+    def way_in(self, frm: IntArray, to: IntArray, run_m: FloatArray) -> IntArray:
+        """The state a run of ``run_m`` (m) from a place in state ``frm`` entered state
+        ``to`` from: the one of the states ``to`` is entered from that such a run reaches
+        (the track from the end of ``frm`` to its entry is no longer than the run), -1
+        where none or several do."""
+        frm = np.asarray(frm, dtype=np.int64)
+        ways = self._ways_in[np.asarray(to, dtype=np.int64)]  # (n, width)
+        reach = self._physical.lookup(
+            np.repeat(frm[:, None], ways.shape[1], axis=1), np.maximum(ways, 0), self.n_states
+        )
+        near = (ways >= 0) & ((ways == frm[:, None]) | (reach <= np.asarray(run_m)[:, None]))
+        one = near.sum(axis=1) == 1
+        return np.where(one, ways[np.arange(len(ways)), np.argmax(near, axis=1)], -1)
 
     def behind(
         self,

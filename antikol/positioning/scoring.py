@@ -604,7 +604,19 @@ def _came_from(
 ) -> IntArray:
     """The state each new hypothesis entered its own from: its parent's where it stays in
     the parent's state, the parent's state where it ran forward straight into the next
-    one, else not known (-1: it ran over a short edge or stepped back)."""
+    one, the one way in that its run reaches where it ran over short edges into a state
+    that tracks join before (:meth:`ReachTable.way_in`), else not known (-1: several ways,
+    or it stepped back)."""
     same = state == parent
-    straight = (moved >= 0.0) & ~same & reach.adjacent(parent, state)
-    return np.where(same, parent_came, np.where(straight, parent, -1))
+    forward = (moved >= 0.0) & ~same
+    straight = forward & reach.adjacent(parent, state)
+    came = np.where(same, parent_came, np.where(straight, parent, -1))
+    # a tram that ran over a short edge into a junction's track must still be able to
+    # step back the way it came when it stands (its fixes scatter behind the junction):
+    # one stray fix ahead carried a stopping tram 9.5 m over a short edge past a trailing
+    # junction, where its standing hypothesis could not step back and was lost
+    over = forward & ~straight & (reach.ways_in_count[state] > 1)
+    if over.any():
+        came = came.copy()
+        came[over] = reach.way_in(parent[over], state[over], moved[over])
+    return came
