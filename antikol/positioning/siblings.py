@@ -154,15 +154,8 @@ class SameWaySiblings:
         out = np.zeros(bs.shape, dtype=bool)
         if self.meet_within_m <= 0.0 or len(bs) == 0:
             return out
-        be, le = state_edge(bs), state_edge(ls)
-        bx, by = self.net.points_at(be, bo)
-        lx, ly = self.net.points_at(le, lo)
-        near = np.hypot(np.asarray(bx) - lx, np.asarray(by) - ly) <= SIDE_BY_SIDE_M
-        turn = self.reach.headings.at(be, bo, state_direction(bs)) - self.reach.headings.at(
-            le, lo, state_direction(ls)
-        )
-        near &= np.cos(np.radians(turn)) >= math.cos(math.radians(_MAX_HEADING_DIFFERENCE_DEG))
-        near &= bs != ls
+        # the tests on states first (most asks end there), then the geometry of the rest
+        near = bs != ls
         # one-way tracks only: two tracks that permit both ways (a double track whose
         # directions the map does not give) may be the two directions' tracks
         near &= ~self.reach.allowed[bs ^ 1] & ~self.reach.allowed[ls ^ 1]
@@ -175,6 +168,18 @@ class SameWaySiblings:
                 ],
                 dtype=bool,
             )
+        if not near.any():
+            return out
+        k = np.flatnonzero(near)
+        be, le = state_edge(bs[k]), state_edge(ls[k])
+        bx, by = self.net.points_at(be, bo[k])
+        lx, ly = self.net.points_at(le, lo[k])
+        beside = np.hypot(np.asarray(bx) - lx, np.asarray(by) - ly) <= SIDE_BY_SIDE_M
+        turn = self.reach.headings.at(be, bo[k], state_direction(bs[k])) - self.reach.headings.at(
+            le, lo[k], state_direction(ls[k])
+        )
+        beside &= np.cos(np.radians(turn)) >= math.cos(math.radians(_MAX_HEADING_DIFFERENCE_DEG))
+        near[k] = beside
         if not near.any():
             return out
         k = np.flatnonzero(near)
