@@ -617,6 +617,5 @@ def _came_from(
     # junction, where its standing hypothesis could not step back and was lost
     over = forward & ~straight & (reach.ways_in_count[state] > 1)
     if over.any():
-        came = came.copy()
         came[over] = reach.way_in(parent[over], state[over], moved[over])
     return came
