@@ -243,6 +243,38 @@ def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
     assert hold_at_switch(arrivals, hyps(1.0, 6.0)[:1], branch, 6.0, 1) is None  # no rival
 
 
+def test_a_branch_is_decided_only_when_it_was_decided_at_the_fix_before(tmp_path):
+    from antikol.positioning.branching import Arrivals, HypothesisBefore, hold_at_switch
+    from antikol.positioning.records import Hypothesis
+
+    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
+    trunk = next(e for e in net.edges if e.way_ids == (1,))
+    branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
+    straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
+    arrivals = Arrivals(net)
+    now = [Hypothesis(branch, 1, 6.0, 0.95, 0.0), Hypothesis(straight, 1, 6.0, 0.05, 0.0)]
+
+    def before(p_branch: float, at_m: float = 3.0) -> list[HypothesisBefore]:
+        return [
+            HypothesisBefore(branch, 1, at_m, p_branch),
+            HypothesisBefore(straight, 1, at_m, 1.0 - p_branch),
+        ]
+
+    def held(previous: list[HypothesisBefore]) -> bool:
+        return hold_at_switch(arrivals, now, branch, 6.0, 1, before=previous) is not None
+
+    assert not held([])  # not known (a fresh start): the share alone decides
+    assert not held(before(0.92))  # decided then too
+    assert held(before(0.6))  # one fix swung it: not yet
+    assert held(before(0.05))  # it was on the other branch
+    # it was still before the switch: the first fix past it decides nothing yet
+    assert held([HypothesisBefore(trunk.edge_id, 1, trunk.length_m - 2.0, 1.0)])
+    # once reported past the switch, a branch above the released share stays shown
+    released = {trunk.end_node}
+    rel = hold_at_switch(arrivals, now, branch, 12.0, 1, before=before(0.05), released=released)
+    assert rel is None
+
+
 def test_the_way_back_to_a_switch_crosses_a_junction_the_track_alone_does_not(tmp_path):
     from antikol.positioning.branching import Arrivals
 

@@ -24,6 +24,12 @@ even odds (``RELEASED_SHARE``): stepping back to the switch breaks the chain of 
 positions as much as a branch change does, and a share wavering around a half would step
 back and forth (a simulated HFP log had a branch at 0.91, then 0.499, then 0.73: reported
 on it, at the switch 21 m back, and on it again).
+
+Below ``TWO_FIXES_BELOW_MPS`` a branch is decided only when it held ``DECIDED_SHARE`` of the
+vehicle's hypotheses at the fix before too (``SURE_SHARE`` decides at once): at walking pace
+a fix moves the tram less than a street fix is off, and one stray fix could swing the
+branches. A simulated HFP log had a tram held at a switch at 0.87, shown on the other
+branch at 0.93 after a fix beside it, and on its own at 0.99 the fix after.
 """
 
 from __future__ import annotations
@@ -40,12 +46,26 @@ from antikol.positioning.reach import state_direction, state_edge
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
-__all__ = ["Arrivals", "SwitchHold", "entry_node", "hold_at_switch", "tossed_lineages"]
+__all__ = [
+    "TWO_FIXES_BELOW_MPS",
+    "Arrivals",
+    "HypothesisBefore",
+    "SwitchHold",
+    "entry_node",
+    "hold_at_switch",
+    "tossed_lineages",
+]
 
 #: Past a switch farther than this, the branch is reported even if undecided, m.
 HOLD_M = 40.0
 #: A branch holding this share of the branches' probability is decided.
 DECIDED_SHARE = 0.9
+#: A branch holding this share is decided at once; below it, only when it held
+#: ``DECIDED_SHARE`` at the fix before too.
+SURE_SHARE = 0.99
+#: Below this speed a branch is decided only when it was decided at the fix before too,
+#: m/s (at walking pace a fix moves the tram less than one stray fix moves the shares).
+TWO_FIXES_BELOW_MPS = 5.0
 #: Once reported past a switch, the vehicle is held at it again only when the branch it
 #: was reported on holds less than this share (below a half: a branch that wavers around
 #: even odds keeps being reported; the other one takes over at ``switch_probability``).
@@ -241,6 +261,48 @@ def _first_way(
     return []
 
 
+class HypothesisBefore(NamedTuple):
+    """A vehicle's hypothesis at the fix before its last.
+
+    Attributes
+    ----------
+    edge_id, direction, offset_m
+        Its place (edge id, +1/-1, m from the edge's start).
+    probability : float
+    """
+
+    edge_id: int
+    direction: int
+    offset_m: float
+    probability: float
+
+
+def _branch_share(
+    chains: Sequence[tuple[Mapping[int, State], float]],
+    states: Sequence[State],
+    node: int,
+    branch: State,
+    trunk: State,
+    *,
+    along: Collection[State] = (),
+) -> float | None:
+    """The share of hypotheses that took ``branch`` at the switch ``node`` among those
+    that took any branch of it or are still on ``trunk`` before it (``chains``: each
+    hypothesis' passed switches and probability; ``states``: each one's state; ``along``:
+    states known to lie on ``branch``'s way on, beyond a junction that hides the way
+    back); None when no hypothesis is either."""
+    mine = others = 0.0
+    for (passed, p), here in zip(chains, states, strict=True):
+        taken = passed.get(node)
+        if taken == branch or (taken is None and here in along):
+            mine += p
+        elif taken is not None or here == trunk:
+            others += p  # on another branch, or still before the switch
+    if mine + others == 0.0:
+        return None
+    return mine / (mine + others)
+
+
 def entry_node(net: TrackMap, edge: int, direction: int) -> int:
     """The node at which a vehicle in ``(edge, direction)`` entered the edge."""
     e = net.edges[edge]
@@ -277,6 +339,7 @@ def hold_at_switch(
     released: Collection[int] = (),
     route: Collection[int] | None = None,
     way: Sequence[State] = (),
+    before: Sequence[HypothesisBefore] | Callable[[], Sequence[HypothesisBefore]] = (),
 ) -> SwitchHold | None:
     """The switch to report instead of an undecided branch, or None when every switch the
     position has just passed is decided.
@@ -302,6 +365,11 @@ def hold_at_switch(
         node), and the switches along it are the hypothesis' own
         (:meth:`Arrivals.switches_along`). Without it, the track's own way back
         (:meth:`Arrivals.switches`), which stops where tracks join.
+    before : sequence of HypothesisBefore, or a callable giving one, optional
+        The vehicle's hypotheses at the fix before its last: a branch is decided only
+        when it held :data:`DECIDED_SHARE` of them too, so that one stray fix that swings
+        the branches does not decide (empty: not known, a fresh start; the share alone
+        decides). A callable is called only when a branch needs them.
 
     Returns
     -------
@@ -326,6 +394,8 @@ def hold_at_switch(
         ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)}, h.probability)
         for h in hypotheses
     ]
+    chains_before: list[tuple[dict[int, State], float]] | None = None
+    states_before: list[State] = []
     came = dict(zip(way[1:], way[:-1], strict=False)) if along else {}
     mine_way = _first_way(net, hypotheses, way, (edge, direction))
     if mine_way:
@@ -337,20 +407,35 @@ def hold_at_switch(
         trunk = came.get(state) or arrivals.before(*state)
         if trunk is None:  # pragma: no cover - a switch has a track before it
             continue
-        mine = others = 0.0
-        for (passed, p), h in zip(chains, hypotheses, strict=True):
-            taken = passed.get(node)
-            if taken == state:
-                mine += p
-            elif taken is not None or (h.edge_id, h.direction) == trunk:
-                others += p  # on another branch, or still before the switch
-        if mine + others == 0.0:
+        now = _branch_share(
+            chains, [(h.edge_id, h.direction) for h in hypotheses], node, state, trunk
+        )
+        if now is None:
             # every hypothesis lies beyond a junction that hides the way back to this
             # switch: none is before it or on another branch, nothing is left open
             continue
-        decided = RELEASED_SHARE if node in released and past > STEP_BACK_M else DECIDED_SHARE
-        if mine / (mine + others) >= decided:
+        if node in released and past > STEP_BACK_M:
+            if now >= RELEASED_SHARE:
+                continue
+        elif now >= SURE_SHARE:
             continue
+        elif now >= DECIDED_SHARE:
+            if chains_before is None:
+                hyps_before = before() if callable(before) else before
+                chains_before = [
+                    ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)},
+                     h.probability)
+                    for h in hyps_before
+                ]  # fmt: skip
+                states_before = [(h.edge_id, h.direction) for h in hyps_before]
+            # beyond a junction only the reported lineage's way tells which branch a
+            # hypothesis on it came by
+            on_way = mine_way[mine_way.index(state) :] if state in mine_way else []
+            then = _branch_share(
+                chains_before, states_before, node, state, trunk, along=frozenset(on_way)
+            )
+            if then is None or then >= DECIDED_SHARE:
+                continue
         t_edge, t_dir = trunk
         end = net.edges[t_edge].length_m if t_dir == 1 else 0.0
         return SwitchHold(t_edge, end, t_dir, past, node)

@@ -194,6 +194,12 @@ class FleetState:
     qe: FloatArray = field(init=False)
     qr: FloatArray = field(init=False)
     qn: FloatArray = field(init=False)
+    # its hypotheses at the fix before the last (state id, -1: none; offset, m;
+    # log-probability): a branch is decided only when it was decided then too
+    # (antikol.positioning.branching)
+    bs: IntArray = field(init=False)
+    bo: FloatArray = field(init=False)
+    bp: FloatArray = field(init=False)
     place: FloatArray = field(init=False)
     rejected: IntArray = field(init=False)
     confident_run: IntArray = field(init=False)
@@ -206,6 +212,9 @@ class FleetState:
     def __post_init__(self) -> None:
         k = self.k
         self.hs = np.zeros((0, k), np.int64)
+        self.bs = np.zeros((0, k), np.int64)
+        self.bo = np.zeros((0, k))
+        self.bp = np.zeros((0, k))
         for name in SLOT_FIELDS:
             setattr(self, name, np.zeros((0, k)))
         for name in (*VEHICLE_FIELDS, "place"):
@@ -224,6 +233,9 @@ class FleetState:
         for name in (
             "hs",
             *SLOT_FIELDS,
+            "bs",
+            "bo",
+            "bp",
             *VEHICLE_FIELDS,
             "place",
             "rejected",
@@ -245,6 +257,7 @@ class FleetState:
         self.hs[row] = -1
         self.hp[row] = -math.inf
         self.hv[row] = -1.0
+        self.forget_before(row)
         for name in _UNKNOWN_AT_START:
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
@@ -261,6 +274,33 @@ class FleetState:
         self.kf.t[row] = np.nan
         self.last[row] = None
         self.lost[row] = None
+
+    def forget_before(self, row: int) -> None:
+        """Forget one row's hypotheses at the fix before (none known: a fresh start)."""
+        self.bs[row] = -1
+        self.bo[row] = 0.0
+        self.bp[row] = -math.inf
+
+    def keep_before(self, rows: IntArray, fresh: BoolArray) -> None:
+        """Keep the hypotheses of ``rows`` as those at the fix before, ahead of a new fix
+        (none for the rows that start afresh with it)."""
+        self.bs[rows] = np.where(fresh[:, None], -1, self.hs[rows])
+        self.bo[rows] = self.ho[rows]
+        self.bp[rows] = self.hp[rows]
+
+    def hypotheses_before(self, row: int) -> list[tuple[int, int, float, float]]:
+        """One row's hypotheses at the fix before the last: (edge id, direction, offset
+        m, probability), the most probable first (empty: not known)."""
+        slots = np.flatnonzero(self.bs[row] >= 0)
+        return [
+            (
+                int(self.bs[row, k]) >> 1,
+                1 - 2 * (int(self.bs[row, k]) & 1),
+                float(self.bo[row, k]),
+                math.exp(float(self.bp[row, k])),
+            )
+            for k in slots.tolist()
+        ]
 
     def repeats_rejected(
         self, rows: IntArray, xs: FloatArray, ys: FloatArray, t_s: FloatArray, within_s: float
@@ -383,6 +423,10 @@ class FleetState:
             },
             "vehicle": {name: json_float(getattr(self, name)[row]) for name in VEHICLE_FIELDS},
             "filter": [json_float(a[row]) for a in (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv)],
+            "before": [
+                [int(self.bs[row, k]), float(self.bo[row, k]), json_float(self.bp[row, k])]
+                for k in np.flatnonzero(self.bs[row] >= 0).tolist()
+            ],
             "rejected_in_row": int(self.rejected[row]),
             "confident_in_row": int(self.confident_run[row]),
             "gated_in_row": int(self.gated[row]),
@@ -407,6 +451,10 @@ class FleetState:
             (kf.t, kf.s, kf.v, kf.pss, kf.psv, kf.pvv), data["filter"], strict=True
         ):
             arr[row] = math.nan if value is None else value
+        before = data.get("before", [])[: self.k]  # (a state saved without them: not known)
+        for k, (state, offset, log_p) in enumerate(before):
+            self.bs[row, k], self.bo[row, k] = int(state), float(offset)
+            self.bp[row, k] = -math.inf if log_p is None else float(log_p)
         self.rejected[row] = int(data["rejected_in_row"])
         self.confident_run[row] = int(data["confident_in_row"])
         self.gated[row] = int(data.get("gated_in_row", 0))

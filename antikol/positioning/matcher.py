@@ -636,6 +636,7 @@ class Positioner:
             rebased = at[same]
             switched[rebased] = False
             self.stats["lineage_switch_in_place"] += int(np.count_nonzero(same))
+        f.keep_before(done, fresh[go])
         f.hs[done] = -1
         f.hp[done] = _NEG_INF
         f.hs[r, col] = cs[m_idx]

@@ -19,7 +19,13 @@ import numpy as np
 import numpy.typing as npt
 
 from antikol.kinds import PositionStatus
-from antikol.positioning.branching import HOLD_M, Arrivals, hold_at_switch
+from antikol.positioning.branching import (
+    HOLD_M,
+    TWO_FIXES_BELOW_MPS,
+    Arrivals,
+    HypothesisBefore,
+    hold_at_switch,
+)
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import Advanced, advance, edge_mass
 from antikol.positioning.fleet import FleetState
@@ -242,6 +248,9 @@ def place_one(
         released=arrivals.switches_behind(basis) if basis else frozenset(),
         route=last.route,
         way=_way(net, first, entered, moved),
+        before=(lambda: [HypothesisBefore(*h) for h in fleet.hypotheses_before(row)])
+        if float(v) < TWO_FIXES_BELOW_MPS
+        else (),
     )
     if held is not None:
         edge, off, direction, past_m, _ = held
