@@ -193,6 +193,21 @@ def test_the_simulated_receiver_reports_its_fix_a_second_late():
         assert b[t].odometer_m == a[t].odometer_m
 
 
+def test_a_late_receiver_sends_nothing_until_its_first_fix_is_that_old():
+    # it used to send its first observation for the length of the latency (at a start:
+    # the position twice, with a random standing course), which a positioner reads as a
+    # receiver holding its course at a standstill
+    net = trackmap.load_default()
+    (spec,) = fleet(net, 1, 3)
+    on_time = Simulator(net, [spec], gps=GpsModel.urban(), seed=3).run(30.0)
+    late = Simulator(net, [spec], gps=GpsModel.urban(latency_s=2.0), seed=3).run(30.0)
+    first_on_time, first_late = on_time.reports[0], late.reports[0]
+    assert first_late.t == first_on_time.t + 2.0
+    assert (first_late.lat, first_late.lon) == (first_on_time.lat, first_on_time.lon)
+    positions = [(r.lat, r.lon) for r in late.reports[:3]]
+    assert len(set(positions)) == len(positions)
+
+
 def test_a_course_reversed_for_the_first_reports_leaves_no_lasting_lead():
     # a tram setting off with its previous trip's course: the first fixes are matched to
     # the other track of a double track, then the course is right. Its place must be where

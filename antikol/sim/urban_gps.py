@@ -107,7 +107,8 @@ class UrbanGpsModel:
     (true speed plus N(0, ``speed_sigma_mps``²)) and the odometer; reports with a fix carry
     ``fix_quality = 1``. With ``latency_s`` the receiver's position, speed and course are
     that old (rounded to whole epochs) when the report is stamped, the odometer is not (an
-    AVL unit that stamps its reports when it sends them). Without ``fix_quality_field`` (an
+    AVL unit that stamps its reports when it sends them); it sends nothing until its first
+    fix is that old. Without ``fix_quality_field`` (an
     operator's feed, GTFS-realtime) no report carries a fix quality: those without a fix
     repeat the last position unflagged. ``course_fault`` makes the reported course wrong
     all along (:func:`course_with_fault`): a feed that sends a bidirectional vehicle's
@@ -348,9 +349,11 @@ def observe_urban(
     raw_course = (
         np.degrees(np.arctan2(vx, vy)) + ep.convergence_deg + gps.course_sigma_deg * z[:, 10]
     ) % 360.0
-    if gps.latency_s > 0.0 and n:
-        # the receiver's output is latency_s old when the report is stamped
-        late = np.maximum(np.arange(n) - round(gps.latency_s * gps.rate_hz), 0)
+    lag = round(gps.latency_s * gps.rate_hz) if gps.latency_s > 0.0 else 0
+    if lag and n:
+        # the receiver's output is latency_s old when the report is stamped (and there is
+        # none before its first fix is that old)
+        late = np.maximum(np.arange(n) - lag, 0)
         mx, my, speed, raw_course = mx[late], my[late], speed[late], raw_course[late]
     # outages: a two-state chain whose entry hazard grows with the canyon
     p_enter = 1.0 - np.exp(
@@ -363,6 +366,7 @@ def observe_urban(
         state = bool(u[m, 4] >= p_exit) if state else bool(u[m, 4] < p_enter[m])
         outage[m] = state
     available = ~outage & (u[:, 5] >= gps.missing_rate)
+    available[:lag] = False  # a late receiver has nothing to send yet
     if gps.tunnel_dropout and ep.tunnel.any():
         available &= ~blocked_after_tunnels(ep.tunnel, tf, gps.tunnel_reacquire_s)
     fix_idx = np.flatnonzero(available)
