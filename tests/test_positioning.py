@@ -275,11 +275,11 @@ def test_a_branch_is_decided_only_when_it_was_decided_at_the_fix_before(tmp_path
     assert rel is None
 
 
-def test_the_way_back_to_a_switch_crosses_a_junction_the_track_alone_does_not(tmp_path):
-    from antikol.positioning.branching import Arrivals
-
-    # trunk to a switch at (0, 0); its straight branch runs 20 m into a junction where a
-    # line from the west joins, then on north; the other branch curves east
+def _switch_before_a_junction(tmp_path) -> tuple[trackmap.TrackMap, int, int, int, int]:
+    """Trunk to a switch at (0, 0); its straight branch (the spur) runs 20 m into a
+    junction where a line from the west joins, then on north; the other branch curves
+    east. Returns the map, the switch's node and the trunk's, spur's and north line's
+    edge ids."""
     b = OsmBuilder()
     toe, junction = b.node(0.0, 0.0), b.node(0.0, 20.0)
     b.line([(0.0, -300.0), toe], oneway="yes")
@@ -291,6 +291,13 @@ def test_the_way_back_to_a_switch_crosses_a_junction_the_track_alone_does_not(tm
     trunk, spur, north = (
         next(e.edge_id for e in net.edges if e.way_ids == (w,)) for w in (1, 2, 3)
     )
+    return net, toe, trunk, spur, north
+
+
+def test_the_way_back_to_a_switch_crosses_a_junction_the_track_alone_does_not(tmp_path):
+    from antikol.positioning.branching import Arrivals
+
+    net, toe, trunk, spur, north = _switch_before_a_junction(tmp_path)
     arrivals = Arrivals(net)
     # from the north line the track alone stops at the junction: two ways lead there
     assert arrivals.switches((north, 1)) == ()
@@ -303,6 +310,40 @@ def test_the_way_back_to_a_switch_crosses_a_junction_the_track_alone_does_not(tm
     # on the spur itself the track alone finds it, and no junction stops the way back
     assert arrivals.switches((spur, 1)) == ((toe, 0.0, (spur, 1)),)
     assert arrivals.merge_behind_m((spur, 1)) == float("inf")
+
+
+def test_a_switch_reported_past_stays_passed_beyond_a_junction(tmp_path):
+    # a tram reported on the spur, then on the north line beyond the junction: the track's
+    # way back from where it was reported stops at the junction, and the switch it had
+    # been reported past was held at again (31 m back) when its branch's share dipped
+    # (a simulated HFP log with a receiver 1 s late, seed 4)
+    from antikol.positioning.branching import Arrivals, HypothesisBefore, hold_at_switch
+    from antikol.positioning.placing import _released
+    from antikol.positioning.records import Hypothesis
+
+    net, toe, _, spur, north = _switch_before_a_junction(tmp_path)
+    east = next(e.edge_id for e in net.edges if e.way_ids == (5,))
+    arrivals = Arrivals(net)
+    way = [(spur, 1), (north, 1)]
+    assert arrivals.switches_behind((north, 1)) == frozenset()
+    assert _released(arrivals, (north, 1), way) == {toe}
+    assert _released(arrivals, (spur, 1), way) == {toe}
+    assert _released(arrivals, None, way) == frozenset()
+    hyps = [
+        Hypothesis(north, 1, 4.0, 0.57, 0.0),
+        Hypothesis(spur, 1, 19.0, 0.38, 0.0),
+        Hypothesis(east, 1, 15.0, 0.05, 0.0),
+    ]
+    before = [HypothesisBefore(north, 1, 2.0, 0.87), HypothesisBefore(east, 1, 13.0, 0.13)]
+
+    def held(released: frozenset[int]) -> bool:
+        return (
+            hold_at_switch(arrivals, hyps, north, 4.0, 1, released=released, way=way, before=before)
+            is not None
+        )
+
+    assert held(arrivals.switches_behind((north, 1)))  # what it used to be given
+    assert not held(_released(arrivals, (north, 1), way))
 
 
 def test_a_restored_state_goes_on_as_the_original_past_a_switch(tmp_path):

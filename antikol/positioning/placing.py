@@ -239,15 +239,16 @@ def place_one(
     edge, off, direction = moved.edge_id, moved.offset_m, moved.direction
     place_p = float(fleet.place[row]) * moved.branch_share
     # held at an undecided switch behind it? (None at once when there is none)
+    way = _way(net, first, entered, moved)
     held = hold_at_switch(
         arrivals,
         hyps,
         edge,
         off,
         direction,
-        released=arrivals.switches_behind(basis) if basis else frozenset(),
+        released=_released(arrivals, basis, way),
         route=last.route,
-        way=_way(net, first, entered, moved),
+        way=way,
         before=(lambda: [HypothesisBefore(*h) for h in fleet.hypotheses_before(row)])
         if float(v) < TWO_FIXES_BELOW_MPS
         else (),
@@ -279,6 +280,22 @@ def place_one(
         max(age, 0.0),
         held is not None,
     )
+
+
+def _released(
+    arrivals: Arrivals, basis: tuple[int, int] | None, way: list[tuple[int, int]]
+) -> frozenset[int]:
+    """Nodes of the switches the vehicle was reported past: behind where it was placed
+    before (``basis``), by the track's way back, and when ``basis`` lies on the reported
+    position's ``way``, along that way too (the track's way back stops where tracks join:
+    a tram reported past a switch, then past a junction, was held at the switch again)."""
+    if basis is None:
+        return frozenset()
+    behind = arrivals.switches_behind(basis)
+    if basis not in way[1:]:
+        return behind
+    along = arrivals.switches_along(way[: way.index(basis) + 1])
+    return behind | {node for node, _, _ in along}
 
 
 def _way(net: TrackMap, first: Hypothesis, entered: int, moved: Advanced) -> list[tuple[int, int]]:
