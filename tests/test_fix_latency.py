@@ -228,3 +228,21 @@ def test_a_course_reversed_for_the_first_reports_leaves_no_lasting_lead():
             assert abs(float(x_m) - 3.1) < 0.5  # on the northbound track
         errors.append(float(y_m) - y)
     assert max(abs(e) for e in errors[3:]) < 2.0
+
+
+def test_antikol_simulate_writes_a_late_receiver(tmp_path, capsys):
+    from antikol.cli import main
+    from antikol.ingest.replaylog import read_replay_csv
+
+    base = ["simulate", "--trams", "2", "--minutes", "1", "--gps", "urban", "--seed", "3"]
+    on_time, late = tmp_path / "on_time.csv", tmp_path / "late.csv"
+    assert main([*base, "-o", str(on_time)]) == 0
+    assert main([*base, "--latency", "1", "-o", str(late)]) == 0
+    a = {(r.vehicle_id, r.t): r for r in read_replay_csv(on_time).reports if r.fix_quality == 1}
+    b = {(r.vehicle_id, r.t): r for r in read_replay_csv(late).reports if r.fix_quality == 1}
+    shifted = [(v, t) for v, t in b if (v, t - 1.0) in a]
+    assert len(shifted) > 60
+    assert all((b[k].lat, b[k].lon) == (a[(k[0], k[1] - 1.0)].lat, a[(k[0], k[1] - 1.0)].lon)
+               for k in shifted)  # fmt: skip
+    assert main(["simulate", "--latency", "1", "-o", str(tmp_path / "x.csv")]) == 2
+    assert "--gps urban" in capsys.readouterr().err

@@ -11,6 +11,7 @@ from antikol.cli.common import (
     EXIT_INTERNAL_ERROR,
     add_map_option,
     load_map,
+    non_negative_float,
     positive_float,
     positive_int,
 )
@@ -47,6 +48,15 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
         help="with --gps urban: a course field wrong all along, as some feeds send it "
         "(reversed: a bidirectional tram's other end; zero: 0 for no heading; "
         "ccw_from_east: a mathematical angle) (default none)",
+    )
+    p.add_argument(
+        "--latency",
+        type=non_negative_float,
+        default=0.0,
+        metavar="S",
+        help="with --gps urban: the receiver's position, speed and course are S seconds old "
+        "when a report is stamped (its odometer is not), as an AVL unit that stamps its "
+        "reports when it sends them (default 0)",
     )
 
 
@@ -145,12 +155,16 @@ def _build(name: str, net: Any, args: argparse.Namespace) -> Any:
     from antikol.sim import GpsModel
 
     fault = getattr(args, "course_fault", "none")
+    latency_s = getattr(args, "latency", 0.0)
     urban = getattr(args, "gps", "white") == "urban"
     if fault != "none" and not urban:
         raise UsageError("--course-fault needs the street receiver (--gps urban)")
+    if latency_s > 0.0 and not urban:
+        raise UsageError("--latency needs the street receiver (--gps urban)")
     scn = build_scenario(name, net, **_params(name, args))
     if urban:
-        scn = dataclasses.replace(scn, gps=GpsModel.urban(course_fault=fault))
+        gps = GpsModel.urban(course_fault=fault, latency_s=latency_s)
+        scn = dataclasses.replace(scn, gps=gps)
     return scn
 
 
