@@ -218,15 +218,23 @@ def test_a_position_carried_past_a_switch_takes_the_branch_the_hypotheses_hold(t
     assert on_trunk.edge_id == trunk.edge_id and on_trunk.branch_share == 1.0
 
 
-def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
-    from antikol.positioning.branching import Arrivals, hold_at_switch
-    from antikol.positioning.records import Hypothesis
+def _switch(tmp_path):
+    """The switch fixture's map: its Arrivals, the trunk (an Edge) and the branch's and
+    the straight track's edge ids."""
+    from antikol.positioning.branching import Arrivals
 
     net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
     trunk = next(e for e in net.edges if e.way_ids == (1,))
     branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
     straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
-    arrivals = Arrivals(net)
+    return Arrivals(net), trunk, branch, straight
+
+
+def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
+    from antikol.positioning.branching import hold_at_switch
+    from antikol.positioning.records import Hypothesis
+
+    arrivals, trunk, branch, straight = _switch(tmp_path)
 
     def hyps(p_branch: float, at_m: float) -> list[Hypothesis]:
         return [
@@ -244,14 +252,10 @@ def test_hold_at_switch_only_while_the_branch_is_open(tmp_path):
 
 
 def test_a_branch_is_decided_only_when_it_was_decided_at_the_fix_before(tmp_path):
-    from antikol.positioning.branching import Arrivals, HypothesisBefore, hold_at_switch
+    from antikol.positioning.branching import HypothesisBefore, hold_at_switch
     from antikol.positioning.records import Hypothesis
 
-    net = trackmap.build(switch_fixture().write_xml(tmp_path / "s.osm"))
-    trunk = next(e for e in net.edges if e.way_ids == (1,))
-    branch = next(e.edge_id for e in net.edges if e.way_ids == (3,))
-    straight = next(e.edge_id for e in net.edges if e.way_ids == (2,))
-    arrivals = Arrivals(net)
+    arrivals, trunk, branch, straight = _switch(tmp_path)
     now = [Hypothesis(branch, 1, 6.0, 0.95, 0.0), Hypothesis(straight, 1, 6.0, 0.05, 0.0)]
 
     def before(p_branch: float, at_m: float = 3.0) -> list[HypothesisBefore]:

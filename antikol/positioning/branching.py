@@ -277,6 +277,17 @@ class HypothesisBefore(NamedTuple):
     probability: float
 
 
+def _chains(
+    arrivals: Arrivals, hypotheses: Sequence[Hypothesis] | Sequence[HypothesisBefore]
+) -> list[tuple[dict[int, State], float]]:
+    """Each hypothesis' passed switches (node: the state entered there, up to
+    :data:`LOOKBACK_M` back) and its probability."""
+    return [
+        ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)}, h.probability)
+        for h in hypotheses
+    ]
+
+
 def _branch_share(
     chains: Sequence[tuple[Mapping[int, State], float]],
     states: Sequence[State],
@@ -390,10 +401,7 @@ def hold_at_switch(
     ]
     if not switches:
         return None
-    chains = [
-        ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)}, h.probability)
-        for h in hypotheses
-    ]
+    chains = _chains(arrivals, hypotheses)
     chains_before: list[tuple[dict[int, State], float]] | None = None
     states_before: list[State] = []
     came = dict(zip(way[1:], way[:-1], strict=False)) if along else {}
@@ -422,11 +430,7 @@ def hold_at_switch(
         elif now >= DECIDED_SHARE:
             if chains_before is None:
                 hyps_before = before() if callable(before) else before
-                chains_before = [
-                    ({n: s for n, _, s in arrivals.chain(h.edge_id, h.offset_m, h.direction)},
-                     h.probability)
-                    for h in hyps_before
-                ]  # fmt: skip
+                chains_before = _chains(arrivals, hyps_before)
                 states_before = [(h.edge_id, h.direction) for h in hyps_before]
             # beyond a junction only the reported lineage's way tells which branch a
             # hypothesis on it came by

@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.kalman import TrackFilterState
-from antikol.positioning.reach import state_edge
+from antikol.positioning.reach import state_direction, state_edge
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -292,15 +292,16 @@ class FleetState:
         """One row's hypotheses at the fix before the last: (edge id, direction, offset
         m, probability), the most probable first (empty: not known)."""
         slots = np.flatnonzero(self.bs[row] >= 0)
-        return [
-            (
-                int(self.bs[row, k]) >> 1,
-                1 - 2 * (int(self.bs[row, k]) & 1),
-                float(self.bo[row, k]),
-                math.exp(float(self.bp[row, k])),
+        states = self.bs[row, slots]
+        return list(
+            zip(
+                state_edge(states).tolist(),
+                state_direction(states).tolist(),
+                self.bo[row, slots].tolist(),
+                np.exp(self.bp[row, slots]).tolist(),
+                strict=True,
             )
-            for k in slots.tolist()
-        ]
+        )
 
     def repeats_rejected(
         self, rows: IntArray, xs: FloatArray, ys: FloatArray, t_s: FloatArray, within_s: float
