@@ -49,6 +49,7 @@ _LATE_BRAKING = "a_late_receiver_braking_beside_a_stub.json"
 _STRAY_PAST_SHORT_EDGE = "a_stray_fix_ahead_past_a_short_branch_edge.json"
 _OVER_SHORT_EDGE = "a_stray_fix_over_a_short_edge_past_a_junction.json"
 _DECIDED_BY_ONE_FIX = "a_stray_fix_decides_a_branch_at_walking_pace.json"
+_FAR_BESIDE_BRANCHES = "a_fix_far_beside_two_close_branches.json"
 
 
 @pytest.fixture(scope="module")
@@ -134,6 +135,42 @@ def test_a_fix_no_place_explains_is_dead_reckoned_over(straight):
     out = [pos.update(r) for r in reports[11:]]
     assert all(p.status == "confident" for p in out)
     assert out[-1].offset_m == pytest.approx(230.0, abs=3.0)
+
+
+def test_a_fix_far_beside_every_track_is_dead_reckoned_over(straight):
+    # 16 m beside the track and 8 m ahead of where the odometer puts the vehicle: the
+    # move and the fix's place along the track score well enough, but across the track
+    # only the heavy-tailed floor explains it; the hypotheses used to move 8 m ahead to it
+    speed = 10.0
+    reports = _on_the_line(speed, 14)
+    reports[10] = _moved(reports[10], 16.0, 8.0)
+    pos = Positioner(straight)
+    for r in reports[:11]:
+        pos.update(r)
+    assert pos.stats["outlier_fix"] == 1
+    assert pos.hypotheses("V")[0].offset_m == pytest.approx(200.0, abs=3.0)
+    out = [pos.update(r) for r in reports[11:]]
+    assert all(p.status == "confident" for p in out)
+    assert out[-1].offset_m == pytest.approx(230.0, abs=3.0)
+
+
+def test_a_lasting_offset_beside_the_track_is_followed_after_the_rejections(straight):
+    # the fixes stay 16 m beside the track from t = 8 s (a bias jump, or a track the map
+    # misses): each third in a row is taken as it is, the filter's bias follows those,
+    # and the fixes are explained again within seconds; the tram runs on meanwhile
+    speed = 10.0
+    reports = _on_the_line(speed, 30)
+    reports[8:] = [_moved(r, 16.0, 0.0) for r in reports[8:]]
+    pos = Positioner(straight)
+    out, outliers = [], []
+    for r in reports:
+        out.append(pos.update(r))
+        outliers.append(pos.stats["outlier_fix"])
+    assert outliers[7] == 0 and outliers[8] == 1
+    assert outliers[-10] == outliers[-1]  # none in the last ten seconds
+    assert all(p.matched and p.status == "confident" for p in out)
+    for k, p in enumerate(out):
+        assert p.offset_m == pytest.approx(100.0 + speed * k, abs=3.0), k
 
 
 def test_a_lasting_along_track_offset_still_restarts_the_filter(straight):
@@ -937,3 +974,17 @@ def test_a_branch_decided_by_one_stray_fix_is_not_shown_before_the_next_fix():
     assert not any(p.edge_id == 1310 for p in out)
     _assert_connected(net, [p for p in out if p.matched])
     assert any(p.edge_id == 1191 or p.edge_id == 1192 for p in out if p.t <= 800.0)
+
+
+def test_a_fix_far_beside_two_close_branches_does_not_decide_between_them():
+    # street GPS read back from an HFP log (antikol simulate ... --seed 18 --hfp): 40/6
+    # passes the facing switch at the end of 387 at 2.5 m/s onto 454; the other branch
+    # (422, then 424) runs 1-2 m beside it for 20 m. At t = 336 s one fix lay 18 m beside
+    # both: its lateral parts were at the heavy-tailed floor for both, but its places
+    # along them (the branches 12 degrees apart) were 4 m apart, which gave 422 0.96. The
+    # tram was shown on 422 and 424, then on 454: a step no route connects
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _FAR_BESIDE_BRANCHES, "40/6")
+    assert not any(p.edge_id in (422, 424) for p in out)
+    assert any(p.edge_id == 454 for p in out if p.t <= 345.0)
+    _assert_connected(net, [p for p in out if p.matched and p.t >= 325.0])

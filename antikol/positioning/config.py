@@ -143,6 +143,10 @@ class PositioningConfig:
         fix, with its hypothesis' probability; about -6 for a typical fix, -8 at the
         emission's heavy-tailed floor) below minus this: no place explains it, it is
         dead-reckoned over (the ``max_rejections_in_row``-th in a row is taken as it is).
+        So is a fix that lies, across the track, beyond what its Gaussian error and every
+        hypothesis' learnt bias explain (the heavy-tailed floor explains it better) for
+        every candidate: a fix 18 m beside two branches 1–2 m apart still has a place
+        along each, and 4 m between those places decided the branch.
     confidence : float
         A match is ``confident`` when the best place holds at least this probability.
     confident_after : int

@@ -67,7 +67,8 @@ class Scored:
 
     Per fix: ``unmatched`` (no candidate), ``stuck`` (the vehicle has hypotheses but none
     reaches a candidate by a plausible move, there is no candidate, or the best candidate
-    scores below ``-outlier_fix_nats``: the fix is an outlier and rejected), ``fresh``
+    scores below ``-outlier_fix_nats``, or it lies across the track beyond every candidate's
+    Gaussian error: the fix is an outlier and rejected), ``fresh``
     (the vehicle starts afresh), ``standing`` (it ran less than ``standstill_distance_m``
     since its last fix), ``stood_s`` (how long it has stood at this fix, s), ``rejected``
     (its rejections in a row after this step) and ``along_sigma`` (the fix's error along
@@ -338,6 +339,18 @@ def score_fixes(
         pair_late_m,
     )  # fmt: skip
     lat_ll = _mixture_ll(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight, floor[pc])
+    # a moving vehicle's fix that lies, across the track, where the heavy-tailed floor
+    # explains it better than the Gaussian does for every candidate is no evidence of
+    # where along the track the vehicle is either: its places along diverging branches
+    # still differ (the branches at an angle), and that difference alone decided a branch
+    # (one fix 18 m beside two branches 1–2 m apart put their places 4 m apart). (A
+    # standing vehicle's fixes are weighed down by a variance that puts even a fix on the
+    # track below the floor; the standing gate judges those.)
+    gaussian_ll = math.log1p(-c.outlier_weight) - 0.5 * (
+        lat_i.residual_m**2 / lat_i.variance_m2 + np.log(2.0 * math.pi * lat_i.variance_m2)
+    )
+    explained = standing.copy()
+    np.logical_or.at(explained, pcv, gaussian_ll > np.log(floor[pc]))
     # the course is the heading where the hypothesis puts the vehicle, not where the fix
     # projects: in a tight curve a fix metres off along the track projects where the track
     # turns another way, and the hypothesis that knows its place should not pay for that
@@ -437,7 +450,7 @@ def score_fixes(
         strict_lp = np.where(fresh[cv] | use0, new_lp, new_lp - stricter)
         top_strict = np.full(n, _NEG_INF)
         np.maximum.at(top_strict, cv, strict_lp)
-    poor = ~fresh & ~unmatched & ~stuck & (top_strict < -c.outlier_fix_nats)
+    poor = ~fresh & ~unmatched & ~stuck & ((top_strict < -c.outlier_fix_nats) | ~explained)
     if poor.any():
         stats["outlier_fix"] += int(np.count_nonzero(poor))
         rejected = rejected + (poor & ~repeat)
