@@ -50,6 +50,7 @@ _STRAY_PAST_SHORT_EDGE = "a_stray_fix_ahead_past_a_short_branch_edge.json"
 _OVER_SHORT_EDGE = "a_stray_fix_over_a_short_edge_past_a_junction.json"
 _DECIDED_BY_ONE_FIX = "a_stray_fix_decides_a_branch_at_walking_pace.json"
 _FAR_BESIDE_BRANCHES = "a_fix_far_beside_two_close_branches.json"
+_TOSS_UNDECIDED = "a_coin_toss_at_a_switch_undecided_at_the_next_fix.json"
 
 
 @pytest.fixture(scope="module")
@@ -913,6 +914,19 @@ def test_a_coin_toss_at_a_switch_gives_way_before_it_is_shown():
     past = [p for p in out if 322.0 <= p.t <= 332.0]  # (219 until 332 s)
     assert all(p.edge_id in (373, 219) for p in past), [(p.t, p.edge_id) for p in past]
     _assert_connected(net, [p for p in out if p.matched])
+
+
+def test_a_coin_toss_at_a_switch_is_remembered_past_the_first_fix_after_it():
+    # street GPS, output 1 s old: T06 runs at 10 m/s over the facing switch at the end of
+    # 15 in an outage (t = 296-297 s), split 50/50 over 311 and 680 (side by side), its
+    # lineage on 311. The first fix back gave 680 0.54 (short of the toss's 0.6), the next
+    # 0.63, but the lineage no longer stood tied with it: kept, it was shown on 311 when
+    # the hold ran out (0.37), and the tram jumped to 680 three fixes later
+    net = trackmap.load_default()
+    out = _replay_recorded(net, _TOSS_UNDECIDED, "T06")
+    assert not any(p.edge_id == 311 for p in out)
+    assert any(p.edge_id == 680 for p in out if p.t <= 300.0)
+    _assert_connected(net, [p for p in out if p.matched and p.t >= 280.0])
 
 
 def test_a_late_receiver_braking_into_a_stop_stays_on_its_track():

@@ -142,10 +142,14 @@ def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
     states = np.array([state_id(*s) for s in (straight, diverging, trunk)])
     parent = np.array([0, 1, 0])  # the candidates descend from slots 0, 1 and 0
 
-    def ask(slot_p: list[float], shown: dict, best: int = 1, lineage: int = 0) -> bool:
+    def ask(
+        slot_p: list[float], shown: dict, best: int = 1, lineage: int = 0, tied_at=None
+    ) -> bool:
         log_p = np.log(np.array([slot_p]))
-        reports = [VehicleReport("V", 0.0, 50.06, 19.94, 5.0, 0.0)]
-        tossed = tossed_lineages(net, states, parent, log_p, np.array([0]), reports, shown)
+        reports = [VehicleReport("V", 20.0, 50.06, 19.94, 5.0, 0.0)]
+        tossed = tossed_lineages(
+            net, states, parent, log_p, np.array([0]), reports, shown, tied_at=tied_at
+        )
         return bool(tossed(np.array([0]), np.array([best]), np.array([lineage]))[0])
 
     # split 50/50 without evidence, shown at the switch: a toss not shown yet
@@ -155,3 +159,11 @@ def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
     # shown on the lineage's own branch, or never shown: kept
     assert not ask([0.5, 0.5], {"V": straight})
     assert not ask([0.5, 0.5], {})
+    # tied a fix ago (the first fix after the split did not decide): still a toss, for
+    # TOSS_MEMORY_S after the tie; the lineage shown on its own branch is kept all the same
+    from antikol.positioning.branching import TOSS_MEMORY_S
+
+    assert ask([0.46, 0.54], {"V": trunk}, tied_at=np.array([19.0]))
+    assert not ask([0.46, 0.54], {"V": trunk}, tied_at=np.array([20.0 - TOSS_MEMORY_S - 1]))
+    assert not ask([0.46, 0.54], {"V": trunk}, tied_at=np.array([np.nan]))
+    assert not ask([0.46, 0.54], {"V": straight}, tied_at=np.array([19.0]))

@@ -47,6 +47,8 @@ from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
 __all__ = [
+    "TIE_NATS",
+    "TOSS_MEMORY_S",
     "TWO_FIXES_BELOW_MPS",
     "Arrivals",
     "HypothesisBefore",
@@ -451,7 +453,12 @@ def hold_at_switch(
 #: beyond a short edge).
 _UNREPORTED_EDGES = 2
 #: Two hypotheses' log-probabilities this close are a tie (a split without evidence).
-_TIE = 1e-9
+TIE_NATS = 1e-9
+#: A lineage tied with another hypothesis is a toss for this long after the tie, s: the fix
+#: right after a split over the branches seldom decides, and at the next one the lineage
+#: and the best no longer stand tied (an outage at a switch; the tram was shown on the
+#: lineage's branch at 0.29, two fixes after the tie, against 0.71).
+TOSS_MEMORY_S = 10.0
 
 
 def tossed_lineages(
@@ -462,6 +469,7 @@ def tossed_lineages(
     rows: npt.NDArray[np.int64],
     reports: Sequence[Any],
     reported: Mapping[str, tuple[int, int]],
+    tied_at: npt.NDArray[np.float64] | None = None,
 ) -> Callable[[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]],
               npt.NDArray[np.bool_]]:  # fmt: skip
     """The ``tossed`` test of :func:`~antikol.positioning.lineage.plan_slots` for one batch
@@ -472,7 +480,9 @@ def tossed_lineages(
     branch is decisive, as a lineage that has been reported is, it was shown when the
     switch hold ran out, at 0.44 against 0.56, and a few seconds later the vehicle jumped
     to the other branch. A lineage is a toss when its hypothesis and the best candidate's
-    parent held the same probability before this fix, and not yet shown when the vehicle
+    parent held the same probability before this fix (or the lineage stood tied with
+    another hypothesis within :data:`TOSS_MEMORY_S` before, ``tied_at``), and not yet
+    shown when the vehicle
     was last reported on a track behind it (up to two edges back) from which the best
     candidate is reachable too: then the best leads, and no chain of reported positions
     breaks.
@@ -490,6 +500,9 @@ def tossed_lineages(
     reports : sequence of VehicleReport
     reported : mapping
         The (edge, direction) each vehicle was last reported on, by vehicle id.
+    tied_at : ndarray of float, optional
+        Per vehicle row: when its lineage last stood tied with another hypothesis, s (NaN:
+        not since its lineage changed).
     """
 
     def ahead(origin: tuple[int, int], target: tuple[int, int]) -> bool:
@@ -509,7 +522,10 @@ def tossed_lineages(
             row = rows[n]
             p_lineage, p_best = slot_log_p[row, 0], slot_log_p[row, parent[b]]
             shown = reported.get(reports[n].vehicle_id)
-            if parent[b] < 0 or shown is None or abs(p_lineage - p_best) > _TIE:
+            if parent[b] < 0 or shown is None:
+                continue
+            recent = tied_at is not None and reports[n].t - tied_at[row] <= TOSS_MEMORY_S
+            if abs(p_lineage - p_best) > TIE_NATS and not recent:
                 continue
             ours = (int(state_edge(states[ln])), int(state_direction(states[ln])))
             if ours == shown or not ahead(shown, ours):

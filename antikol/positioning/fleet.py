@@ -43,14 +43,14 @@ VEHICLE_FIELDS = (
     "oraw", "ocor", "olf", "zlf", "osum", "ox", "oy", "orn", "omx", "omy", "ocxx", "ocxy",
     "opxx", "opxy", "oscale", "bvar", "oq", "oqn", "ostep",
     "kraw", "kt", "kv", "kacc", "klow", "kn", "kmin",
-    "sm", "sc", "sn", "sa", "sp", "pf",
+    "sm", "sc", "sn", "sa", "sp", "pf", "tt",
     "qx", "qy", "qt", "qv", "qc", "qe", "qr", "qn",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
 _UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf", "oq", "ostep",
-    "kraw", "kt", "klow", "kmin", "sc", "qx", "qy", "qt", "qv", "qc",
+    "kraw", "kt", "klow", "kmin", "sc", "tt", "qx", "qy", "qt", "qv", "qc",
 )  # fmt: skip
 
 
@@ -181,6 +181,9 @@ class FleetState:
     sn: FloatArray = field(init=False)
     sa: FloatArray = field(init=False)
     pf: FloatArray = field(init=False)
+    # when its lineage last stood tied with another hypothesis (a coin toss: dead-reckoned
+    # over a switch, the branches share evenly), s; NaN: not since its lineage changed
+    tt: FloatArray = field(init=False)
     sp: FloatArray = field(init=False)
     # whether its reported course is believed (antikol.positioning.coursecheck): the
     # anchor fix of the next chord (local position, m, time, s, speed, m/s, course,
@@ -280,6 +283,16 @@ class FleetState:
         self.bs[row] = -1
         self.bo[row] = 0.0
         self.bp[row] = -math.inf
+
+    def note_ties(self, rows: IntArray, t: FloatArray, tie_nats: float) -> None:
+        """Note the time ``t`` (s) for the ``rows`` whose lineage stands tied with another
+        hypothesis (log-probabilities within ``tie_nats``) ahead of a new fix: split evenly
+        over a switch, a coin toss, which the fix right after the tie seldom decides."""
+        with np.errstate(invalid="ignore"):  # (empty slots: -inf - -inf)
+            gap = np.abs(self.hp[rows, 1:] - self.hp[rows, :1])
+        tied = ((self.hs[rows, 1:] >= 0) & (gap <= tie_nats)).any(axis=1)
+        tied &= self.hs[rows, 0] >= 0
+        self.tt[rows[tied]] = t[tied]
 
     def keep_before(self, rows: IntArray, fresh: BoolArray) -> None:
         """Keep the hypotheses of ``rows`` as those at the fix before, ahead of a new fix

@@ -58,7 +58,7 @@ import numpy.typing as npt
 from antikol.gcpause import gc_paused
 from antikol.positioning.alongtrack import run_track_filters
 from antikol.positioning.biasscale import learn_bias_sigma
-from antikol.positioning.branching import Arrivals, tossed_lineages
+from antikol.positioning.branching import TIE_NATS, Arrivals, tossed_lineages
 from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.coursecheck import check_courses, restart_doubted
@@ -610,7 +610,9 @@ class Positioner:
         c = self.config
         rank_order, bounds, p, parent, fresh, standing = ranking
         cs, co, prog, ww, came, error_cols = candidates
-        f = self._f
+        f, done = self._f, rows[go]
+        f.note_ties(done, measured[0][go], TIE_NATS)
+        toss = tossed_lineages(self.net, cs, parent, f.hp, rows, reports, self._reported, f.tt)
         chosen, m_idx, m_group, col = plan_slots(
             *(rank_order, bounds, p, parent, go),
             fresh=fresh,
@@ -620,11 +622,11 @@ class Positioner:
             switch_probability=c.switch_probability,
             standing_switch_probability=c.standing_switch_probability,
             same_way=self._siblings.asker(cs, co, reports, rows, f.hs, self._reported),
-            tossed=tossed_lineages(self.net, cs, parent, f.hp, rows, reports, self._reported),
+            tossed=toss,
         )
         r = rows[m_group]
-        done = rows[go]
         switched = ~fresh[go] & (parent[chosen] != 0)
+        f.tt[done[switched | fresh[go]]] = np.nan  # (a new lineage: no toss of its own)
         progress = prog[chosen]
         rebased = None
         if switched.any():
