@@ -121,30 +121,23 @@ def test_an_outlier_a_feed_repeats_counts_once_towards_a_restart(straight, copie
         assert out[-1].offset_m == pytest.approx(100.0, abs=5.0)
 
 
-def test_a_fix_no_place_explains_is_dead_reckoned_over(straight):
-    # 20 m beside the track and 20 m ahead of where the odometer puts the vehicle: within
-    # the search radius and what physics allows, but every candidate explains it badly;
-    # the hypotheses used to move to it
+@pytest.mark.parametrize(
+    "beside_m, ahead_m",
+    [
+        # 20 m beside the track and 20 m ahead of where the odometer puts the vehicle:
+        # within the search radius and what physics allows, but every candidate explains
+        # it badly; the hypotheses used to move to it
+        (20.0, 20.0),
+        # 16 m beside and 8 m ahead: the move and the fix's place along the track score
+        # well enough, but across the track only the heavy-tailed floor explains it; the
+        # hypotheses used to move 8 m ahead to it
+        (16.0, 8.0),
+    ],
+)
+def test_a_fix_no_place_explains_is_dead_reckoned_over(straight, beside_m, ahead_m):
     speed = 10.0
     reports = _on_the_line(speed, 14)
-    reports[10] = _moved(reports[10], 20.0, 20.0)
-    pos = Positioner(straight)
-    for r in reports[:11]:
-        pos.update(r)
-    assert pos.stats["outlier_fix"] == 1
-    assert pos.hypotheses("V")[0].offset_m == pytest.approx(200.0, abs=3.0)
-    out = [pos.update(r) for r in reports[11:]]
-    assert all(p.status == "confident" for p in out)
-    assert out[-1].offset_m == pytest.approx(230.0, abs=3.0)
-
-
-def test_a_fix_far_beside_every_track_is_dead_reckoned_over(straight):
-    # 16 m beside the track and 8 m ahead of where the odometer puts the vehicle: the
-    # move and the fix's place along the track score well enough, but across the track
-    # only the heavy-tailed floor explains it; the hypotheses used to move 8 m ahead to it
-    speed = 10.0
-    reports = _on_the_line(speed, 14)
-    reports[10] = _moved(reports[10], 16.0, 8.0)
+    reports[10] = _moved(reports[10], beside_m, ahead_m)
     pos = Positioner(straight)
     for r in reports[:11]:
         pos.update(r)
