@@ -482,10 +482,9 @@ def tossed_lineages(
     to the other branch. A lineage is a toss when its hypothesis and the best candidate's
     parent held the same probability before this fix (or the lineage stood tied with
     another hypothesis within :data:`TOSS_MEMORY_S` before, ``tied_at``), and not yet
-    shown when the vehicle
-    was last reported on a track behind it (up to two edges back) from which the best
-    candidate is reachable too: then the best leads, and no chain of reported positions
-    breaks.
+    shown when the vehicle was last reported on a track behind it (up to two edges back)
+    from which the best candidate is reachable too: then the best leads, and no chain of
+    reported positions breaks.
 
     Parameters
     ----------

@@ -338,7 +338,6 @@ def score_fixes(
         prior, nx[pc], ny[pc], lateral[pc], tx[pc], ty[pc], noise_var[pc] / weight[pcv],
         pair_late_m,
     )  # fmt: skip
-    lat_ll = _mixture_ll(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight, floor[pc])
     # a moving vehicle's fix that lies, across the track, where the heavy-tailed floor
     # explains it better than the Gaussian does for every candidate is no evidence of
     # where along the track the vehicle is either: its places along diverging branches
@@ -346,11 +345,10 @@ def score_fixes(
     # (one fix 18 m beside two branches 1–2 m apart put their places 4 m apart). (A
     # standing vehicle's fixes are weighed down by a variance that puts even a fix on the
     # track below the floor; the standing gate judges those.)
-    gaussian_ll = math.log1p(-c.outlier_weight) - 0.5 * (
-        lat_i.residual_m**2 / lat_i.variance_m2 + np.log(2.0 * math.pi * lat_i.variance_m2)
-    )
+    gaussian = _gaussian_part(lat_i.residual_m, lat_i.variance_m2, c.outlier_weight)
+    lat_ll = np.log(gaussian + floor[pc])  # (as _mixture_ll, the Gaussian computed once)
     explained = standing.copy()
-    np.logical_or.at(explained, pcv, gaussian_ll > np.log(floor[pc]))
+    np.logical_or.at(explained, pcv, gaussian > floor[pc])
     # the course is the heading where the hypothesis puts the vehicle, not where the fix
     # projects: in a tight curve a fix metres off along the track projects where the track
     # turns another way, and the hypothesis that knows its place should not pay for that
@@ -540,14 +538,19 @@ def _shared_out(
     return out
 
 
-def _mixture_ll(resid: Any, var: Any, outlier_weight: float, floor: Any) -> Any:
-    """Log-density of a Gaussian innovation with a heavy-tailed floor (an outlier's)."""
-    return np.log(
+def _gaussian_part(resid: Any, var: Any, outlier_weight: float) -> Any:
+    """Density of the Gaussian part of an innovation's mixture (weight ``1 -
+    outlier_weight``)."""
+    return (
         (1.0 - outlier_weight)
         * np.exp(-0.5 * resid * resid / var - 0.5 * np.log(var))
         / math.sqrt(2.0 * math.pi)
-        + floor
     )
+
+
+def _mixture_ll(resid: Any, var: Any, outlier_weight: float, floor: Any) -> Any:
+    """Log-density of a Gaussian innovation with a heavy-tailed floor (an outlier's)."""
+    return np.log(_gaussian_part(resid, var, outlier_weight) + floor)
 
 
 def _course_ll(diff_deg: Any, sigma_deg: Any, outlier_weight: float) -> Any:
