@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,6 +27,8 @@ from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import Hypothesis
 from tests._osm import FRAME, STRAIGHT_LINE, OsmBuilder, straight_fixture, switch_fixture
 from tests._paths import reports_along
+from tests._recorded import assert_connected as _assert_connected
+from tests._recorded import replay_recorded as _replay_recorded
 
 LINE = STRAIGHT_LINE
 _STRAY_FIX = "outlier_beside_a_merging_track.json"
@@ -489,36 +489,6 @@ def test_carried_over_a_node_a_hypothesis_remembers_the_track_it_came_by(merge_n
     assert int(fleet.hv[0, 0]) == state_id(straight.edge_id, 1)
     assert int(fleet.hs[0, 1]) == state_id(other.edge_id, 1)
     assert int(fleet.hv[0, 1]) == -1
-
-
-def _replay_recorded(net, name: str, vehicle_id: str, config=None) -> list:
-    """The positions of a recorded fix sequence (``tests/data/<name>``), one by one, as
-    placed (a recording starts the vehicle afresh: its first positions are shown later,
-    see ``tests/test_showing.py``)."""
-    data = json.loads((Path(__file__).parent / "data" / name).read_text())
-    pos = Positioner(net, config)
-    out = []
-    for t, lat, lon, speed, course, odometer, quality in data["reports"]:
-        report = VehicleReport(
-            vehicle_id, t, lat, lon, speed, course, odometer_m=odometer, fix_quality=quality
-        )
-        shown = pos.update(report)
-        placed = pos.placed_positions([vehicle_id])[0]
-        assert shown == placed or (shown.unplaced and placed.hypotheses == shown.hypotheses)
-        out.append(placed)
-    return out
-
-
-def _assert_connected(net, positions: list) -> None:
-    """Each position is reached from the one before within 60 m ahead, or 10 m behind."""
-    for p, q in itertools.pairwise(positions):
-        ahead = net.route_distance(
-            p.edge_id, p.offset_m, p.direction, q.edge_id, q.offset_m, cutoff_m=60.0
-        )
-        back = net.route_distance(
-            q.edge_id, q.offset_m, q.direction, p.edge_id, p.offset_m, cutoff_m=10.0
-        )
-        assert ahead is not None or back is not None, (p, q)
 
 
 def test_one_stray_fix_beside_a_merging_track_does_not_relocate_the_tram():

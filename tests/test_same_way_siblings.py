@@ -24,6 +24,7 @@ from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.siblings import SameWaySiblings
 from tests._osm import FRAME, OsmBuilder
 from tests._paths import reports_along
+from tests._recorded import assert_connected, replay_recorded
 
 SPEED_MPS = 5.0
 #: The bubble: a straight platform track and one bowed 4 m to the east, from the switch
@@ -218,3 +219,47 @@ def test_by_default_the_bias_swinging_before_two_tracks_meet_moves_no_tram_acros
         assert on_pair
         assert (len(set(on_pair)) == 2) == jumps
         assert (broken >= 1) == jumps
+
+
+_LAGGING = "a_lagging_position_beside_a_same_way_track.json"
+# in the embedded Kraków map: two one-way tracks 4-5 m apart, 348 then 349 and 107 then 27,
+# from a switch to where they meet again (the start of 742)
+_LINEAGE_FIRST, _LINEAGE_SECOND, _OTHER_FIRST, _OTHER_SECOND, _MET = 348, 349, 107, 27, 742
+
+
+def test_a_reported_position_an_edge_behind_its_lineage_still_holds_it():
+    # the reported position is smoothed along the track and enters a short edge a fix or
+    # two after its lineage's hypothesis: reported on 348 with the lineage on 349, the
+    # vehicle was reported on its lineage, and a jump to 27 (which 348 does not lead to)
+    # breaks the chain as much as one from 349 does
+    net = trackmap.load_default()
+    siblings = SameWaySiblings(net, ReachTable.for_map(net, reach_m=400.0), meet_within_m=50.0)
+    lineage, best = int(state_id(_LINEAGE_SECOND, 1)), int(state_id(_OTHER_SECOND, 1))
+    lineage_off, best_off = 5.0, 5.0
+
+    def held(reported):
+        got = siblings.hold(
+            [best], [best_off], [lineage], [lineage_off],
+            reported=[reported], lineage_before=[lineage],
+        )  # fmt: skip
+        return bool(got[0])
+
+    assert held((_LINEAGE_SECOND, 1))
+    assert held((_LINEAGE_FIRST, 1))  # an edge behind: the position lags its lineage
+    assert not held((_OTHER_FIRST, 1))  # reported on the other track: moves on at no break
+    assert not held((_MET, 1))  # not behind the lineage at all
+    assert not held(None)
+
+
+def test_a_lagging_reported_position_is_not_moved_across_before_the_tracks_meet():
+    # a harsher street receiver (6 m of lateral bias in canyons) read back from an HFP
+    # log: 40/8 was reported on 348 while the evidence moved to 107 beside it, and held
+    # there, the two meeting 50 m on. At t = 714 s its lineage had entered 349 while its
+    # reported position, 9 m before the end of 348, had not: it was no longer counted as
+    # reported on its lineage, and jumped to 27, which no move from 348 reaches
+    net = trackmap.load_default()
+    out = replay_recorded(net, _LAGGING, "40/8")
+    late = [p for p in out if p.matched and p.t >= 705.0]
+    assert_connected(net, late)
+    assert {p.edge_id for p in late} >= {_LINEAGE_FIRST, _MET}
+    assert not any(p.edge_id in (_OTHER_FIRST, _OTHER_SECOND) for p in late)

@@ -78,6 +78,9 @@ SIDE_BY_SIDE_M: Final = 10.0
 _MAX_HEADING_DIFFERENCE_DEG: Final = 30.0
 #: Answers kept before the cache starts afresh (pairs of places to the metre).
 _MAX_KEPT: Final = 100_000
+#: How many edges the reported position may lag its lineage's hypothesis and still count as
+#: reported on it (smoothed along the track, it enters a short edge a fix or two late).
+_LAG_EDGES: Final = 2
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
@@ -112,6 +115,7 @@ class SameWaySiblings:
         self.reach = reach
         self.meet_within_m = min(float(meet_within_m), reach.reach_m)
         self._pairs: dict[tuple[int, int, int, int], bool] = {}
+        self._next: dict[tuple[int, int], bool] = {}
 
     def hold(
         self,
@@ -136,8 +140,11 @@ class SameWaySiblings:
             The (edge, direction) each vehicle was last reported on (None: not yet) ...
         lineage_before : array_like of int, optional
             ... and its lineage's previous track state: a lineage is held only where the
-            vehicle was reported on it. Held at the switch before the two tracks (not yet
-            reported on either), it moves to the best at no break in the chain.
+            vehicle was reported on it, or on a track up to two edges behind it from which
+            the best's is not reached (the reported position, smoothed along the track,
+            enters a short edge a fix or two after its lineage). Held at the switch before
+            the two tracks (not yet reported on either), it moves to the best at no break
+            in the chain.
 
         Returns
         -------
@@ -163,8 +170,8 @@ class SameWaySiblings:
             before = np.atleast_1d(np.asarray(lineage_before, dtype=np.int64)).tolist()
             near &= np.array(
                 [
-                    r is not None and int(state_id(*r)) == s
-                    for r, s in zip(reported, before, strict=True)
+                    self._reported_on(r, s, b)
+                    for r, s, b in zip(reported, before, bs.tolist(), strict=True)
                 ],
                 dtype=bool,
             )
@@ -226,6 +233,40 @@ class SameWaySiblings:
             )
 
         return same_way
+
+    def _reported_on(self, reported: tuple[int, int] | None, lineage: int, best: int) -> bool:
+        """Whether the vehicle was reported on its lineage: on the lineage's track, or on
+        one up to :data:`_LAG_EDGES` behind it from which the best's track is not reached
+        (the reported position is smoothed along the track and lags the lineage's
+        hypothesis by an edge or two at a node; held at a switch before both, it reaches
+        the best's track too, and a move there is no jump)."""
+        if reported is None:
+            return False
+        shown = int(state_id(*reported))
+        if shown == lineage:
+            return True
+        return self._follows(shown, lineage) and best != shown and not self._follows(shown, best)
+
+    def _follows(self, origin: int, target: int) -> bool:
+        """Whether ``target`` is entered from ``origin`` within :data:`_LAG_EDGES` steps."""
+        key = (origin, target)
+        found = self._next.get(key)
+        if found is None:
+            frontier = [(int(state_edge(origin)), int(state_direction(origin)))]
+            found = False
+            for _ in range(_LAG_EDGES):
+                frontier = [
+                    (st.edge_id, int(st.direction))
+                    for e, d in frontier
+                    for st in self.net.successors(e, d)
+                ]
+                if any(int(state_id(e, d)) == target for e, d in frontier):
+                    found = True
+                    break
+            if len(self._next) >= _MAX_KEPT:
+                self._next.clear()
+            self._next[key] = found
+        return found
 
     def _siblings(self, a: int, a_offset_m: float, b: int, b_offset_m: float) -> bool:
         here = ((a, math.floor(a_offset_m)), (b, math.floor(b_offset_m)))
