@@ -54,34 +54,14 @@ def gps_models(**street: float | bool | str) -> dict[str, GpsModel]:
 
 
 def street_settings(settings: list[str]) -> dict[str, float | bool | str]:
-    """``NAME=VALUE`` settings of the street receivers (numbers, ``true`` or ``false``,
-    or words such as ``course_fault=reversed``)."""
-    from antikol.sim.urban_gps import UrbanGpsModel
+    """``NAME=VALUE`` settings of the street receivers
+    (:func:`antikol.sim.urban_gps.street_settings`); a bad one ends the run with its message."""
+    from antikol.sim.urban_gps import street_settings as parse
 
-    fields = {f.name: f for f in dataclasses.fields(UrbanGpsModel)}
-    changes: dict[str, float | bool | str] = {}
-    for item in settings:
-        name, sep, value = item.partition("=")
-        if not sep or name not in fields:
-            raise SystemExit(f"--gps-set {item!r}: expected NAME=VALUE with an UrbanGpsModel field")
-        default = getattr(UrbanGpsModel(), name)
-        if isinstance(default, str):
-            changes[name] = value
-            continue
-        if isinstance(default, bool):
-            if value.lower() not in ("true", "false"):
-                raise SystemExit(f"--gps-set {item!r}: {name} is true or false")
-            changes[name] = value.lower() == "true"
-            continue
-        try:
-            changes[name] = int(value) if isinstance(default, int) else float(value)
-        except ValueError:
-            raise SystemExit(f"--gps-set {item!r}: {value!r} is not a number") from None
     try:
-        GpsModel.urban(**changes)
+        return parse(settings)
     except ValueError as exc:
         raise SystemExit(f"--gps-set: {exc}") from None
-    return changes
 
 
 def add_street_option(ap: argparse.ArgumentParser) -> None:

@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol.sim import GpsModel, Route, Simulator, TramSpec, UrbanGpsModel
@@ -247,3 +249,59 @@ def test_an_odometer_read_every_few_seconds_holds_its_last_update(street, period
     before = np.interp(t[changes - 1], truth.t_s, truth.distance_m) - truth.distance_m[0]
     now = np.interp(t[changes], truth.t_s, truth.distance_m) - truth.distance_m[0]
     assert np.all(run_m[changes] >= before - 0.2) and np.all(run_m[changes] <= now + 0.2)
+
+
+def test_street_settings_read_fields_and_name_the_bad_item():
+    from antikol.errors import InvalidArgumentError
+    from antikol.sim.urban_gps import street_settings
+
+    got = street_settings(["bias_canyon_lateral_m=6", "odometer=false", "course_fault=zero"])
+    assert got == {"bias_canyon_lateral_m": 6.0, "odometer": False, "course_fault": "zero"}
+    assert UrbanGpsModel(**got).bias_canyon_lateral_m == 6.0
+    for bad, says in (
+        ("bias_lateral=6", "UrbanGpsModel field"),  # no such field
+        ("sigma_m", "NAME=VALUE"),
+        ("odometer=maybe", "true or false"),
+        ("sigma_m=wide", "not a number"),
+        ("sigma_m=-1", "sigma_m"),  # the model rejects it
+    ):
+        with pytest.raises(InvalidArgumentError, match=says) as err:
+            street_settings([bad])
+        assert isinstance(err.value, ValueError)
+
+
+def test_antikol_simulate_takes_street_receiver_settings(tmp_path, capsys):
+    # the same trams, seed and receiver but for a stronger multipath bias: other fixes
+    from antikol.cli import main
+    from antikol.ingest.replaylog import read_replay_csv
+
+    base = ["simulate", "--trams", "2", "--minutes", "2", "--gps", "urban", "--seed", "3"]
+    plain, harsh = tmp_path / "plain.csv", tmp_path / "harsh.csv"
+    assert main([*base, "-o", str(plain)]) == 0
+    assert (
+        main([*base, "--gps-set", "bias_open_m=8", "bias_canyon_lateral_m=8", "-o", str(harsh)])
+        == 0
+    )
+    a = {(r.vehicle_id, r.t): r for r in read_replay_csv(plain).reports if r.fix_quality == 1}
+    b = {(r.vehicle_id, r.t): r for r in read_replay_csv(harsh).reports if r.fix_quality == 1}
+    assert a.keys() & b.keys()
+    assert any((a[k].lat, a[k].lon) != (b[k].lat, b[k].lon) for k in a.keys() & b.keys())
+    capsys.readouterr()
+    assert main(["simulate", "--gps-set", "sigma_m=2", "-o", str(tmp_path / "x.csv")]) == 2
+    assert "--gps urban" in capsys.readouterr().err
+    assert main([*base, "--gps-set", "sigma=2", "-o", str(tmp_path / "y.csv")]) == 2
+    assert "sigma=2" in capsys.readouterr().err
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.text(max_size=40), max_size=3))
+def test_street_settings_take_any_text_with_a_result_or_a_clear_error(items):
+    from antikol.errors import InvalidArgumentError
+    from antikol.sim.urban_gps import street_settings
+
+    try:
+        got = street_settings(items)
+    except InvalidArgumentError as exc:
+        assert "gps setting" in str(exc)
+    else:
+        UrbanGpsModel(**got)  # what it returns makes a valid model

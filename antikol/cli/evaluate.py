@@ -58,6 +58,14 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
         "when a report is stamped (its odometer is not), as an AVL unit that stamps its "
         "reports when it sends them (default 0)",
     )
+    p.add_argument(
+        "--gps-set",
+        metavar="NAME=VALUE",
+        nargs="+",
+        default=[],
+        help="with --gps urban: change fields of the street receiver (UrbanGpsModel), e.g. "
+        "bias_canyon_lateral_m=6 for a stronger multipath bias or odometer=false",
+    )
 
 
 def add_parsers(sub: Any) -> None:
@@ -153,6 +161,7 @@ def _build(name: str, net: Any, args: argparse.Namespace) -> Any:
 
     from antikol.evaluation.scenarios import build_scenario
     from antikol.sim import GpsModel
+    from antikol.sim.urban_gps import street_settings
 
     fault = getattr(args, "course_fault", "none")
     latency_s = getattr(args, "latency", 0.0)
@@ -161,9 +170,16 @@ def _build(name: str, net: Any, args: argparse.Namespace) -> Any:
         raise UsageError("--course-fault needs the street receiver (--gps urban)")
     if latency_s > 0.0 and not urban:
         raise UsageError("--latency needs the street receiver (--gps urban)")
+    settings = getattr(args, "gps_set", [])
+    if settings and not urban:
+        raise UsageError("--gps-set needs the street receiver (--gps urban)")
+    try:
+        street = street_settings(settings)
+    except ValueError as exc:
+        raise UsageError(f"--gps-set: {exc}") from None
     scn = build_scenario(name, net, **_params(name, args))
     if urban:
-        gps = GpsModel.urban(course_fault=fault, latency_s=latency_s)
+        gps = GpsModel.urban(**{"course_fault": fault, "latency_s": latency_s, **street})
         scn = dataclasses.replace(scn, gps=gps)
     return scn
 

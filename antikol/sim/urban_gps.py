@@ -29,14 +29,17 @@ trams), clipped to [0, 1] and interpolated along the route between edge midpoint
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 from scipy.special import stdtrit
 
+from antikol.errors import InvalidArgumentError
 from antikol.report import VehicleReport
 from antikol.sim.epochs import (
     blocked_after_tunnels,
@@ -52,7 +55,14 @@ from antikol.sim.truth import FixLog, Truth
 from antikol.sim.vehicles import TramSpec
 from trackmap import TrackMap
 
-__all__ = ["COURSE_FAULTS", "UrbanGpsModel", "canyon_factors", "course_with_fault", "observe_urban"]
+__all__ = [
+    "COURSE_FAULTS",
+    "UrbanGpsModel",
+    "canyon_factors",
+    "course_with_fault",
+    "observe_urban",
+    "street_settings",
+]
 
 #: The faults of a feed's course that :class:`UrbanGpsModel` can simulate.
 COURSE_FAULTS = ("none", "reversed", "zero", "ccw_from_east")
@@ -270,6 +280,60 @@ def _place_normal(seed: int, edge_id: int) -> float:
     digest = hashlib.sha256(f"canyon:{seed}:{edge_id}".encode()).digest()
     words = [int.from_bytes(digest[i : i + 4], "little") for i in range(0, 16, 4)]
     return float(np.random.default_rng(np.random.SeedSequence(words)).standard_normal())
+
+
+def street_settings(settings: Iterable[str]) -> dict[str, float | bool | str]:
+    """Fields of :class:`UrbanGpsModel` from ``NAME=VALUE`` strings, as a command line
+    gives them: numbers, ``true`` or ``false``, or words (``course_fault=reversed``).
+
+    Parameters
+    ----------
+    settings : iterable of str
+        ``NAME=VALUE`` items, e.g. ``["bias_canyon_lateral_m=6", "odometer=false"]``.
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :class:`UrbanGpsModel` (checked: the model they make is valid).
+
+    Raises
+    ------
+    InvalidArgumentError
+        An item that names no field, a value of the wrong kind, or a model that rejects it
+        (the message names the item).
+
+    >>> street_settings(["bias_canyon_lateral_m=6", "odometer=false"])
+    {'bias_canyon_lateral_m': 6.0, 'odometer': False}
+    """
+    items = list(settings)
+    defaults = UrbanGpsModel()
+    names = {f.name for f in dataclasses.fields(UrbanGpsModel)}
+    changes: dict[str, float | bool | str] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or name not in names:
+            raise InvalidArgumentError(
+                "gps setting", item, "expected NAME=VALUE with an UrbanGpsModel field"
+            )
+        default = getattr(defaults, name)
+        if isinstance(default, str):
+            changes[name] = value
+        elif isinstance(default, bool):
+            if value.lower() not in ("true", "false"):
+                raise InvalidArgumentError("gps setting", item, f"{name} is true or false")
+            changes[name] = value.lower() == "true"
+        else:
+            try:
+                changes[name] = int(value) if isinstance(default, int) else float(value)
+            except ValueError:
+                raise InvalidArgumentError(
+                    "gps setting", item, f"{value!r} is not a number"
+                ) from None
+    try:
+        UrbanGpsModel(**changes)  # type: ignore[arg-type]
+    except ValueError as exc:
+        raise InvalidArgumentError("gps settings", items, str(exc)) from None
+    return changes
 
 
 def observe_urban(
