@@ -51,7 +51,6 @@ _OVER_SHORT_EDGE = "a_stray_fix_over_a_short_edge_past_a_junction.json"
 _DECIDED_BY_ONE_FIX = "a_stray_fix_decides_a_branch_at_walking_pace.json"
 _FAR_BESIDE_BRANCHES = "a_fix_far_beside_two_close_branches.json"
 _TOSS_UNDECIDED = "a_coin_toss_at_a_switch_undecided_at_the_next_fix.json"
-_FELL_BEHIND = "a_branch_that_fell_behind_before_the_hold_ran_out.json"
 
 
 @pytest.fixture(scope="module")
@@ -891,21 +890,6 @@ def test_a_coin_toss_at_a_switch_is_remembered_past_the_first_fix_after_it():
     assert not any(p.edge_id == 311 for p in out)
     assert any(p.edge_id == 680 for p in out if p.t <= 300.0)
     _assert_connected(net, [p for p in out if p.matched and p.t >= 280.0])
-
-
-def test_the_branch_shown_when_the_hold_runs_out_is_the_leading_one():
-    # a harsher street receiver (6 m of lateral bias in canyons) read back from an HFP
-    # log: 40/6 passes the facing switch at the end of 86 at 5 m/s onto 792; the other
-    # branch, 791, runs 3-5 m beside it. 791 led just past the switch (0.69-0.87) and
-    # became the lineage; 792 overtook it at 0.56 and 0.71 as the 40-m hold ran out, short
-    # of the 0.75 that moves a lineage. The tram was shown on 791 at 0.29, and on 792 the
-    # fix after: a step no route connects
-    net = trackmap.load_default()
-    out = _replay_recorded(net, _FELL_BEHIND, "40/6")
-    passed = [p for p in out if p.matched and p.t >= 376.0]
-    assert not any(p.edge_id == 791 for p in passed)
-    assert any(p.edge_id == 792 for p in passed if p.t <= 390.0)
-    _assert_connected(net, passed)
 
 
 def test_a_late_receiver_braking_into_a_stop_stays_on_its_track():

@@ -143,26 +143,12 @@ def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
     parent = np.array([0, 1, 0])  # the candidates descend from slots 0, 1 and 0
 
     def ask(
-        slot_p: list[float],
-        shown: dict,
-        best: int = 1,
-        lineage: int = 0,
-        tied_at=None,
-        past_m: float | None = None,
+        slot_p: list[float], shown: dict, best: int = 1, lineage: int = 0, tied_at=None
     ) -> bool:
         log_p = np.log(np.array([slot_p]))
         reports = [VehicleReport("V", 20.0, 50.06, 19.94, 5.0, 0.0)]
-        offsets = None
-        if past_m is not None:  # every branch candidate this far past the switch
-            offsets = np.array(
-                [
-                    past_m if d == 1 else net.edge_length(e) - past_m
-                    for e, d in (straight, diverging)
-                ]
-                + [0.0]
-            )
         tossed = tossed_lineages(
-            net, states, parent, log_p, np.array([0]), reports, shown, tied_at, offsets
+            net, states, parent, log_p, np.array([0]), reports, shown, tied_at=tied_at
         )
         return bool(tossed(np.array([0]), np.array([best]), np.array([lineage]))[0])
 
@@ -181,11 +167,3 @@ def test_tossed_lineages_on_the_branches_of_a_switch(tmp_path):
     assert not ask([0.46, 0.54], {"V": trunk}, tied_at=np.array([20.0 - TOSS_MEMORY_S - 1]))
     assert not ask([0.46, 0.54], {"V": trunk}, tied_at=np.array([np.nan]))
     assert not ask([0.46, 0.54], {"V": straight}, tied_at=np.array([19.0]))
-    # chosen by evidence, but about to be shown past the switch the vehicle is held at
-    # (SHOWN_SOON_M): nothing was shown on the lineage yet, so the best leads
-    from antikol.positioning.branching import SHOWN_SOON_M
-
-    assert ask([0.6, 0.4], {"V": trunk}, past_m=SHOWN_SOON_M + 1.0)
-    assert not ask([0.6, 0.4], {"V": trunk}, past_m=SHOWN_SOON_M - 10.0)
-    assert not ask([0.6, 0.4], {"V": straight}, past_m=SHOWN_SOON_M + 1.0)
-    assert not ask([0.6, 0.4], {}, past_m=SHOWN_SOON_M + 1.0)

@@ -47,7 +47,6 @@ from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
 __all__ = [
-    "SHOWN_SOON_M",
     "TIE_NATS",
     "TOSS_MEMORY_S",
     "TWO_FIXES_BELOW_MPS",
@@ -460,13 +459,6 @@ TIE_NATS = 1e-9
 #: and the best no longer stand tied (an outage at a switch; the tram was shown on the
 #: lineage's branch at 0.29, two fixes after the tie, against 0.71).
 TOSS_MEMORY_S = 10.0
-#: A lineage not yet shown that has run this far past the end of the track its vehicle was
-#: last reported on is about to be shown, m: a vehicle held at a switch is released
-#: ``HOLD_M`` past it, and its place, filtered along the track, may lead the fix's by a few
-#: metres. Such a lineage gives way to a best of ``TOSS_LEAD`` as a toss does (a branch that
-#: led just past the switch and fell behind: shown at 0.27 against 0.73 when the hold ran
-#: out, the tram was moved across two fixes later).
-SHOWN_SOON_M = HOLD_M - 5.0
 
 
 def tossed_lineages(
@@ -478,12 +470,10 @@ def tossed_lineages(
     reports: Sequence[Any],
     reported: Mapping[str, tuple[int, int]],
     tied_at: npt.NDArray[np.float64] | None = None,
-    offsets_m: npt.NDArray[np.float64] | None = None,
 ) -> Callable[[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]],
               npt.NDArray[np.bool_]]:  # fmt: skip
     """The ``tossed`` test of :func:`~antikol.positioning.lineage.plan_slots` for one batch
-    of reports: whether a vehicle's lineage was a coin toss, or is about to be shown on a
-    branch, that nothing has shown yet.
+    of reports: whether a vehicle's lineage was a coin toss that nothing has shown yet.
 
     Dead-reckoned over a facing switch without fixes, a vehicle splits evenly over the
     branches and its lineage follows one of them, the first slot. Kept until the other
@@ -495,14 +485,6 @@ def tossed_lineages(
     shown when the vehicle was last reported on a track behind it (up to two edges back)
     from which the best candidate is reachable too: then the best leads, and no chain of
     reported positions breaks.
-
-    The same holds for any lineage not yet shown that has run :data:`SHOWN_SOON_M` past
-    the end of that track (``offsets_m`` given): the vehicle is about to be released from
-    the switch it is held at, and the lineage is only the branch that led first. Shown
-    there against a best on the other branch, the vehicle would be moved across as soon
-    as that one became decisive. (Before that, while the vehicle is held, the lineage is
-    kept: giving way to any best of ``TOSS_LEAD`` during the hold moved the lineage of a
-    tram between two same-way tracks back and forth, and it was shown on the wrong one.)
 
     Parameters
     ----------
@@ -520,8 +502,6 @@ def tossed_lineages(
     tied_at : ndarray of float, optional
         Per vehicle row: when its lineage last stood tied with another hypothesis, s (NaN:
         not since its lineage changed).
-    offsets_m : ndarray of float, optional
-        Per candidate: its offset on its edge, m (None: only tosses count).
     """
 
     def ahead(origin: tuple[int, int], target: tuple[int, int]) -> bool:
@@ -531,17 +511,6 @@ def tossed_lineages(
             if target in frontier:
                 return True
         return False
-
-    def run_past(origin: tuple[int, int], target: tuple[int, int], offset_m: float) -> float:
-        """Metres from the end of ``origin`` to ``offset_m`` on ``target`` (ahead of it)."""
-        edge, direction = target
-        into = offset_m if direction == 1 else net.edge_length(edge) - offset_m
-        between = [
-            net.edge_length(e)
-            for e, d in net.successors(*origin)
-            if target not in net.successors(*origin) and target in net.successors(e, d)
-        ]
-        return into + min(between, default=0.0)
 
     def tossed(
         report: npt.NDArray[np.int64], best: npt.NDArray[np.int64], lineage: npt.NDArray[np.int64]
@@ -555,14 +524,10 @@ def tossed_lineages(
             if parent[b] < 0 or shown is None:
                 continue
             recent = tied_at is not None and reports[n].t - tied_at[row] <= TOSS_MEMORY_S
-            tied = recent or abs(p_lineage - p_best) <= TIE_NATS
-            if not tied and offsets_m is None:
+            if abs(p_lineage - p_best) > TIE_NATS and not recent:
                 continue
             ours = (int(state_edge(states[ln])), int(state_direction(states[ln])))
             if ours == shown or not ahead(shown, ours):
-                continue
-            soon = offsets_m is None or run_past(shown, ours, float(offsets_m[ln])) >= SHOWN_SOON_M
-            if not (tied or soon):
                 continue
             theirs = (int(state_edge(states[b])), int(state_direction(states[b])))
             out[i] = theirs == shown or ahead(shown, theirs)

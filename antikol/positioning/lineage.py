@@ -10,10 +10,10 @@ the track. The lineage is then followed on its most probable descendant. Where t
 candidate lies on a track beside the lineage's that runs the same way and meets it again a
 short way ahead (``same_way``, opt-in, :mod:`antikol.positioning.siblings`), the lineage can
 be held however decisive the other is. A lineage that was a coin toss (an even split
-without fixes, over a facing switch in an outage), or is about to be shown first past the
-switch its vehicle is held at, and has not been shown yet is not defended against a best
-of :data:`TOSS_LEAD` (``tossed``, :func:`~antikol.positioning.branching.tossed_lineages`).
-A standing vehicle has not left its lineage's place: only very decisive evidence
+without fixes, over a facing switch in an outage) and has not been shown yet is not
+defended against a best of :data:`TOSS_LEAD` (``tossed``,
+:func:`~antikol.positioning.branching.tossed_lineages`). A standing
+vehicle has not left its lineage's place: only very decisive evidence
 (``standing_switch_probability``) moves it to another, however little is left of the
 lineage (the fixes of a tram waiting beside another track drift; the tram does not).
 

@@ -612,7 +612,7 @@ class Positioner:
         cs, co, prog, ww, came, error_cols = candidates
         f, done = self._f, rows[go]
         f.note_ties(done, measured[0][go], TIE_NATS)
-        toss = tossed_lineages(self.net, cs, parent, f.hp, rows, reports, self._reported, f.tt, co)
+        toss = tossed_lineages(self.net, cs, parent, f.hp, rows, reports, self._reported, f.tt)
         chosen, m_idx, m_group, col = plan_slots(
             *(rank_order, bounds, p, parent, go),
             fresh=fresh,
