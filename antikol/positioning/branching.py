@@ -42,7 +42,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from antikol.positioning.reach import state_direction, state_edge
+from antikol.positioning.reach import enters_within, state_direction, state_edge
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
@@ -505,12 +505,7 @@ def tossed_lineages(
     """
 
     def ahead(origin: tuple[int, int], target: tuple[int, int]) -> bool:
-        frontier = [origin]
-        for _ in range(_UNREPORTED_EDGES):
-            frontier = [n for e, d in frontier for n in net.successors(e, d)]
-            if target in frontier:
-                return True
-        return False
+        return enters_within(net, origin, target, _UNREPORTED_EDGES)
 
     def tossed(
         report: npt.NDArray[np.int64], best: npt.NDArray[np.int64], lineage: npt.NDArray[np.int64]

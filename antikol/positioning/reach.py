@@ -33,7 +33,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from antikol.positioning.headings import HeadingProfile
 
-__all__ = ["ReachTable", "state_direction", "state_edge", "state_id"]
+__all__ = ["ReachTable", "enters_within", "state_direction", "state_edge", "state_id"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -56,6 +56,30 @@ def state_edge(state: Any) -> Any:
 def state_direction(state: Any) -> Any:
     """Running direction (+1/-1) of a state id; scalars or arrays."""
     return 1 - 2 * (np.asarray(state, dtype=np.int64) & 1)
+
+
+def enters_within(net: Any, origin: tuple[int, int], target: tuple[int, int], steps: int) -> bool:
+    """Whether a vehicle on ``origin`` enters ``target`` within ``steps`` permitted moves
+    from edge to edge (both ``(edge id, direction)``; ``origin`` itself does not count).
+
+    Parameters
+    ----------
+    net : trackmap.TrackMap
+    origin, target : (int, int)
+        Track states: edge id and running direction (+1/-1).
+    steps : int
+        Edges entered at most.
+
+    Returns
+    -------
+    bool
+    """
+    frontier = [origin]
+    for _ in range(steps):
+        frontier = [n for e, d in frontier for n in net.successors(e, d)]
+        if target in frontier:
+            return True
+    return False
 
 
 @dataclass(frozen=True, slots=True)

@@ -66,7 +66,13 @@ import numpy.typing as npt
 import shapely
 from shapely.ops import substring
 
-from antikol.positioning.reach import ReachTable, state_direction, state_edge, state_id
+from antikol.positioning.reach import (
+    ReachTable,
+    enters_within,
+    state_direction,
+    state_edge,
+    state_id,
+)
 from trackmap import Path
 
 __all__ = ["SIDE_BY_SIDE_M", "SameWaySiblings"]
@@ -252,17 +258,12 @@ class SameWaySiblings:
         key = (origin, target)
         found = self._next.get(key)
         if found is None:
-            frontier = [(int(state_edge(origin)), int(state_direction(origin)))]
-            found = False
-            for _ in range(_LAG_EDGES):
-                frontier = [
-                    (st.edge_id, int(st.direction))
-                    for e, d in frontier
-                    for st in self.net.successors(e, d)
-                ]
-                if any(int(state_id(e, d)) == target for e, d in frontier):
-                    found = True
-                    break
+            found = enters_within(
+                self.net,
+                (int(state_edge(origin)), int(state_direction(origin))),
+                (int(state_edge(target)), int(state_direction(target))),
+                _LAG_EDGES,
+            )
             if len(self._next) >= _MAX_KEPT:
                 self._next.clear()
             self._next[key] = found
