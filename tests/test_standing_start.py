@@ -128,3 +128,38 @@ def test_a_standing_start_course_alone_never_makes_a_position_confident(
 def test_start_course_settings_are_checked(name, value):
     with pytest.raises(InvalidArgumentError, match=name):
         PositioningConfig(**{name: value})
+
+
+def _departure_in_whole_metres(bias_m: float) -> list[VehicleReport]:
+    """A northbound tram's first reports: standing at y = 500 m with a previous trip's
+    course (southbound), then moving off at 2.1, 4.4 and 5.9 m/s with a course good to a
+    degree; its fixes ``bias_m`` west (toward the southbound track), its odometer read out
+    in whole metres (the 0.9 m run in the first second reads 0)."""
+    out = []
+    for k, (speed, run_m, course) in enumerate(
+        [(0.3, 0.0, 180.0), (2.1, 0.9, 1.0), (4.4, 4.0, 359.0), (5.9, 9.2, 0.5)]
+    ):
+        lon, lat = FRAME.to_lonlat(-bias_m, 500.0 + run_m)
+        odometer_m = float(64564 + int(run_m))
+        out.append(VehicleReport("T", float(k), float(lat), float(lon), speed, course,
+                                 odometer_m=odometer_m))  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize("bias_m", [2.5, 3.0])
+def test_a_course_moving_off_weighs_whole_when_the_odometer_shows_no_run(double, bias_m):
+    """Harsher street GPS, HFP's whole-metre odometer: the first moving report's odometer
+    step read 0, the tram counted as standing and its course (313 degrees against a
+    held 133) weighed a fifth. The previous trip's track kept 0.80, the tram was shown
+    there and jumped across a second later. A course measured while moving is no
+    standing fix's drift: it weighs whole."""
+    pos = Positioner(double)
+    out = [pos.update(r) for r in _departure_in_whole_metres(bias_m)]
+    north_edges = {c.edge_id for c in double.candidates(*FRAME.to_lonlat(0.0, 500.0), radius_m=0.5)}
+    northbound = [
+        sum(h.probability for h in p.hypotheses if h.edge_id in north_edges and not h.wrong_way)
+        for p in out
+    ]
+    assert northbound[0] < 0.5  # the held course and the fix: the southbound track
+    assert northbound[1] > 0.9  # the first course moving off overturns it
+    assert all(_on_northbound(double, p) for p in out if p.edge_id is not None)

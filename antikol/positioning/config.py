@@ -238,7 +238,9 @@ class PositioningConfig:
         standstill they move with the fix's own scatter, not with the vehicle. And each
         hypothesis shares its probability over the places it reaches (its move weights sum
         to one): a place with more candidates near the fix (a branch drawn as two edges)
-        gains nothing from a long stop.
+        gains nothing from a long stop. A course reported at ``min_speed_for_course_mps``
+        or faster keeps its whole weight: it is measured while moving, not drifting with
+        the fixes (an odometer read out in whole metres shows no run at a departure).
     standstill_evidence_s : float
         The weight of a standing vehicle's fixes (not of its moves) decays further with the
         time it has stood: ``standstill_evidence_weight × exp(-stood / standstill_evidence_s)``.

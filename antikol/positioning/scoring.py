@@ -366,7 +366,12 @@ def score_fixes(
         along_i.residual_m, along_i.variance_m2, c.outlier_weight, floor[pc]
     ) - _mixture_ll(0.0, noise_var[pc] + bias_sigma[pcv] ** 2, c.outlier_weight, floor[pc])
     along_ll = np.where(rev_ok, 0.0, along_ll)
-    emit = (lat_ll + along_ll + static_ll[pc] - course_ll[pc] + pair_course_ll) * weight[pcv]
+    # a course measured while moving is evidence of its own, not the fixes' drift at a
+    # standstill: it keeps its full weight when a short run (an odometer read out in whole
+    # metres at a departure) counts the vehicle as standing
+    course_weight = np.where(use_course, 1.0, weight)[pcv]
+    emit = (lat_ll + along_ll + static_ll[pc] - course_ll[pc]) * weight[pcv]
+    emit += pair_course_ll * course_weight
     # laid out (candidate, slot) for the reductions, every other slot at -inf: the sums
     # run over the k slots in the same order whatever the number of hypotheses
     score = np.full(valid.shape, _NEG_INF)
