@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/positioning_accuracy.py [--seeds 4 5 6] [--trams 12] [--minutes 15]
 [--gps white urban feed late] [--set NAME=VALUE ...] [--gps-set NAME=VALUE ...]
-[--figure reliability.png]``
+[--figure reliability.png] [--hindsight]``
 
 For each GPS model of :mod:`antikol.sim` — ``white`` (white noise σ 3 m plus a 1.5 m
 Gauss–Markov bias, 10 % of fixes missing), ``urban`` (:meth:`GpsModel.urban`: lateral
@@ -27,7 +27,9 @@ estimates and broken windows pooled over the seeds.
 stale reports were recognised). ``--gps-set`` changes fields of the street receivers
 (:class:`~antikol.sim.urban_gps.UrbanGpsModel`: ``urban``, ``feed`` and ``late``), e.g.
 ``--gps-set bias_canyon_lateral_m=8 odometer=false`` for a stronger multipath bias and no
-odometer. ``--figure`` draws the reliability diagram (needs
+odometer. ``--hindsight`` scores the positions the whole run gives each report
+(:mod:`antikol.positioning.hindsight`, an archive's analysis) instead of those shown at the
+time. ``--figure`` draws the reliability diagram (needs
 matplotlib).
 """
 
@@ -119,6 +121,12 @@ def main() -> None:
     )
     add_street_option(ap)
     ap.add_argument("--figure", help="write the reliability diagram to this PNG")
+    ap.add_argument(
+        "--hindsight",
+        action="store_true",
+        help="score the positions the whole run gives each report (antikol match's "
+        "hindsight columns) instead of those shown at the time",
+    )
     args = ap.parse_args()
     config = _config(args.set)
     street = street_settings(args.gps_set)
@@ -137,7 +145,9 @@ def main() -> None:
         for seed in args.seeds:
             specs = fleet(net, args.trams, seed)
             sim = Simulator(net, specs, gps=gps, seed=seed, default_speed_mps=70 / 3.6)
-            score = positioning_accuracy(net, sim.run(60.0 * args.minutes), config=config)
+            score = positioning_accuracy(
+                net, sim.run(60.0 * args.minutes), config=config, hindsight=args.hindsight
+            )
             results.setdefault(name, []).append(score)
             print(
                 f"| {name} | {seed} | {score.fixes:,} "

@@ -286,7 +286,17 @@ def test_antikol_match_on_an_hfp_log(kraków_run, tmp_path, capsys):
     matched = [row for row in rows if row["status"] in ("confident", "ambiguous")]
     assert len(matched) > 0.95 * len(rows)
     assert all(row["edge_id"] and row["track_lat"] for row in matched)
+    # every report also where the whole log puts it, checked the same way
+    assert "in hindsight" in captured.out
+    later = [row for row in rows if row["hindsight_status"] in ("confident", "ambiguous")]
+    assert len(later) >= len(matched)
+    assert all(row["hindsight_edge_id"] and row["hindsight_track_lat"] for row in later)
     document = json.loads(out_json.read_text(encoding="utf-8"))
+    assert document["hindsight"]["total"]["reports"] == len(result.reports)
+    assert (
+        document["hindsight"]["total"]["disconnected_windows"]
+        <= document["total"]["disconnected_windows"]
+    )
     assert document["records_rejected"] == 1
     assert len(document["total"]["breaks"]) == document["total"]["disconnected_windows"]
     assert document["total"]["reports"] == len(result.reports)

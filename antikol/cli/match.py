@@ -5,6 +5,8 @@ and written as one row of a positions CSV; the matched positions are then checke
 ground truth (:func:`antikol.evaluation.consistency.trace_consistency`): moving fixes on a
 track running the reported course's way, 10-s windows that no permitted route connects,
 and, where the log has an odometer, the distance along the track against its increments.
+Each report is also placed where the whole log puts it
+(:mod:`antikol.positioning.hindsight`): the ``hindsight_*`` columns, checked the same way.
 """
 
 from __future__ import annotations
@@ -52,6 +54,13 @@ POSITION_CSV_COLUMNS = (
     "sigma_m",
     "wrong_way",
     "dead_reckoned_s",
+    "hindsight_status",
+    "hindsight_edge_id",
+    "hindsight_direction",
+    "hindsight_offset_m",
+    "hindsight_track_lat",
+    "hindsight_track_lon",
+    "hindsight_probability",
 )
 
 #: Vehicles listed one per line before only the totals are printed.
@@ -124,7 +133,12 @@ def add_parser(sub: Any) -> None:
 
 
 def _match(args: argparse.Namespace) -> int:
-    from antikol.evaluation.consistency import TraceConsistency, match_reports, trace_consistency
+    from antikol.evaluation.consistency import (
+        TraceConsistency,
+        in_hindsight,
+        match_reports,
+        trace_consistency,
+    )
     from antikol.ingest.feeds import read_log
 
     if args.map is None or args.map == "none":
@@ -147,15 +161,21 @@ def _match(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.log}: no usable report in the log")
     net = load_map(args.map)
     fixes = match_reports(net, log.reports, cycle_s=args.cycle)
-    per_vehicle: dict[str, list[Any]] = defaultdict(list)
-    for f in fixes:
-        per_vehicle[f.vehicle_id].append(f)
-    checks = {
-        vid: trace_consistency(net, seq, odometer_tolerance_m=args.odometer_tolerance)
-        for vid, seq in sorted(per_vehicle.items())
-    }
+    later = in_hindsight(net, fixes)
+
+    def checked(matched: Sequence[Any]) -> dict[str, Any]:
+        per_vehicle: dict[str, list[Any]] = defaultdict(list)
+        for f in matched:
+            per_vehicle[f.vehicle_id].append(f)
+        return {
+            vid: trace_consistency(net, seq, odometer_tolerance_m=args.odometer_tolerance)
+            for vid, seq in sorted(per_vehicle.items())
+        }
+
+    checks, checks_later = checked(fixes), checked(later)
     total = TraceConsistency.pooled(list(checks.values()))
-    rows = _write_positions(args.positions, fixes)
+    total_later = TraceConsistency.pooled(list(checks_later.values()))
+    rows = _write_positions(args.positions, fixes, later)
     rejected = log.rejected
     print(
         f"matched {total.reports:,} reports of {total.vehicles:,} vehicle(s) "
@@ -165,6 +185,14 @@ def _match(args: argparse.Namespace) -> int:
     for line in _summary(total):
         print(line)
     for line in _where_broken(total.breaks):
+        print(line)
+    print(
+        "in hindsight (each report where the whole log puts it, the hindsight_* columns): "
+        f"confident {total_later.confident:,}, ambiguous {total_later.ambiguous:,}"
+    )
+    for line in _summary(total_later, short=True):
+        print(line)
+    for line in _where_broken(total_later.breaks):
         print(line)
     if 1 < len(checks) <= _SHOWN_VEHICLES:
         _print_vehicles(checks)
@@ -176,6 +204,10 @@ def _match(args: argparse.Namespace) -> int:
             "records_rejected": rejected,
             "total": total.as_dict(),
             "vehicles": {vid: c.as_dict() for vid, c in checks.items()},
+            "hindsight": {
+                "total": total_later.as_dict(),
+                "vehicles": {vid: c.as_dict() for vid, c in checks_later.items()},
+            },
         }
         _write_text(args.json, json.dumps(document, indent=2, allow_nan=False) + "\n")
         print(f"wrote the checks to {args.json}")
@@ -186,7 +218,9 @@ def _percent(share: float) -> str:
     return "n/a" if math.isnan(share) else f"{100.0 * share:.2f} %"
 
 
-def _summary(c: Any) -> list[str]:
+def _summary(c: Any, *, short: bool = False) -> list[str]:
+    """The checks' lines; ``short``: only the positions' own (way, windows), the feed's
+    (course, odometer) being the same."""
     from antikol.evaluation.consistency import COURSE_OFF_DEG
 
     lines = [
@@ -197,6 +231,8 @@ def _summary(c: Any) -> list[str]:
         f"10-s windows no permitted route connects: {_percent(c.disconnected_share)} "
         f"({c.disconnected_windows:,} of {c.windows:,})",
     ]
+    if short:
+        return ["  " + line for line in lines]
     if c.course_chords:
         lines.append(
             f"reported course against the run between fixes: "
@@ -264,7 +300,7 @@ def _print_vehicles(checks: dict[str, Any]) -> None:
         )
 
 
-def _write_positions(path: Path, fixes: Sequence[Any]) -> int:
+def _write_positions(path: Path, fixes: Sequence[Any], later: Sequence[Any]) -> int:
     from antikol.evaluation.replay import csv_cell as _cell
 
     try:
@@ -274,8 +310,8 @@ def _write_positions(path: Path, fixes: Sequence[Any]) -> int:
     with fh:
         w = csv.writer(fh)
         w.writerow(POSITION_CSV_COLUMNS)
-        for f in fixes:
-            r, p = f.report, f.position
+        for f, h in zip(fixes, later, strict=True):
+            r, p, q = f.report, f.position, h.position
             w.writerow(
                 [
                     r.vehicle_id,
@@ -297,6 +333,13 @@ def _write_positions(path: Path, fixes: Sequence[Any]) -> int:
                     _cell(p.sigma_m, 2),
                     _cell(p.wrong_way),
                     _cell(p.dead_reckoned_s, 1),
+                    q.status,
+                    _cell(q.edge_id),
+                    _cell(q.direction),
+                    _cell(q.offset_m, 2),
+                    _cell(q.lat if h.matched else None, 7),
+                    _cell(q.lon if h.matched else None, 7),
+                    _cell(q.probability, 3),
                 ]
             )
     return len(fixes)

@@ -53,6 +53,7 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.coursecheck import chords
 from antikol.positioning.estimates import NOT_MEASURED
 from antikol.positioning.fleet import FleetState
+from antikol.positioning.hindsight import REACH_MARGIN_M, hindsight_positions, reach_m, track_step_m
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
 from antikol.report import VehicleReport, one_per_vehicle
@@ -69,6 +70,7 @@ __all__ = [
     "TraceConsistency",
     "WindowBreak",
     "disconnected_windows",
+    "in_hindsight",
     "match_reports",
     "trace_consistency",
     "window_breaks",
@@ -82,11 +84,8 @@ HELD_SHARE: Final = 0.2
 #: Longest span between two new readings of a held odometer that are compared, s.
 HELD_SPAN_S: Final = 30.0
 _WINDOW_S: Final = 10.0
-_MAX_SPEED_MPS: Final = 25.0  # what a tram can run between two fixes, for the cutoff
-_REACH_MARGIN_M: Final = 30.0
 #: Chords test a course as positioning's do: from the speed its course weighs at, m/s.
 _COURSE_SPEED_MPS: Final = PositioningConfig().min_speed_for_course_mps
-_STEP_BACK_M: Final = 10.0  # a filtered position may step back this much along the track
 _WAY_TOLERANCE_DEG: Final = 90.0
 #: A reported course this far off the chord between the vehicle's fixes is off, degrees.
 COURSE_OFF_DEG: Final = 60.0
@@ -171,6 +170,7 @@ def match_reports(
     *,
     config: PositioningConfig | None = None,
     cycle_s: float = 1.0,
+    hindsight: bool = False,
 ) -> list[MatchedFix]:
     """Position every report of a log, in time order.
 
@@ -187,6 +187,10 @@ def match_reports(
     config : PositioningConfig, optional
     cycle_s : float
         Analysis period, s.
+    hindsight : bool, keyword-only
+        Give each report the position the whole log gives it
+        (:func:`~antikol.positioning.hindsight.hindsight_positions`) instead of the one
+        positioning gave right after it (what an on-board unit shows).
 
     Returns
     -------
@@ -200,7 +204,38 @@ def match_reports(
             out.extend(
                 MatchedFix(r, p) for r, p in zip(one_each, pos.update_many(one_each), strict=True)
             )
+    if hindsight:
+        return in_hindsight(net, out, config=config)
     return out
+
+
+def in_hindsight(
+    net: TrackMap, matched: Sequence[MatchedFix], *, config: PositioningConfig | None = None
+) -> list[MatchedFix]:
+    """The same reports, each at the position the whole log gives it
+    (:func:`~antikol.positioning.hindsight.hindsight_positions`).
+
+    Parameters
+    ----------
+    net : TrackMap
+    matched : sequence of MatchedFix
+        As :func:`match_reports` gives them (each vehicle's in time order).
+    config : PositioningConfig, optional
+        Its ``confidence`` marks a place ``confident``.
+
+    Returns
+    -------
+    list of MatchedFix
+        In the same order.
+    """
+    c = config or PositioningConfig()
+    later = hindsight_positions(
+        net,
+        [m.report for m in matched],
+        [m.position for m in matched],
+        confidence=c.confidence,
+    )
+    return [MatchedFix(m.report, p) for m, p in zip(matched, later, strict=True)]
 
 
 @dataclass(frozen=True, slots=True)
@@ -504,7 +539,7 @@ def _odometer_residuals(
             travelled = q.report.odometer_m - p.report.odometer_m
             if travelled < 0.0:
                 continue  # an odometer reset: nothing to compare
-            along = _signed_track_distance(net, p, q, travelled + tolerance_m + _REACH_MARGIN_M)
+            along = _signed_track_distance(net, p, q, travelled + tolerance_m + REACH_MARGIN_M)
             if along is None:
                 unreachable += 1
             else:
@@ -553,19 +588,13 @@ def _place(p: Placed) -> tuple[int, float, int]:
 def _signed_track_distance(net: TrackMap, p: Placed, q: Placed, cutoff_m: float) -> float | None:
     """Distance along the track from ``p`` to ``q`` over moves ``p`` may make (negative: ``q``
     up to 10 m behind ``p``), or None when ``q`` is out of reach."""
-    permitted = not (p.est_wrong_way or q.est_wrong_way)
-    (pe, po, pd), (qe, qo, qd) = _place(p), _place(q)
-    fwd = net.route_distance(pe, po, pd, qe, qo, cutoff_m=cutoff_m, respect_direction=permitted)
-    if fwd is not None and fwd.arrival_direction == qd:
-        return float(fwd.distance_m)
-    if qd != pd and qe == pe:
-        return None
-    back = net.route_distance(
-        qe, qo, qd, pe, po, cutoff_m=_STEP_BACK_M, respect_direction=permitted
+    return track_step_m(
+        net,
+        _place(p),
+        _place(q),
+        cutoff_m=cutoff_m,
+        permitted=not (p.est_wrong_way or q.est_wrong_way),
     )
-    if back is not None and back.arrival_direction == pd:
-        return -float(back.distance_m)
-    return None
 
 
 def disconnected_windows(
@@ -631,8 +660,7 @@ def _windows(
         windows += 1
         seq.sort(key=lambda e: e.t)
         for p, q in itertools.pairwise(seq):
-            reach = _REACH_MARGIN_M + _MAX_SPEED_MPS * max(q.t - p.t, 0.0)
-            if _signed_track_distance(net, p, q, reach) is None:
+            if _signed_track_distance(net, p, q, reach_m(q.t - p.t)) is None:
                 (pe, po, pd), (qe, qo, qd) = _place(p), _place(q)
                 breaks.append(
                     WindowBreak(

@@ -37,6 +37,7 @@ import shapely
 from antikol.evaluation.consistency import MOVING_MPS, disconnected_windows
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.estimates import NOT_MEASURED
+from antikol.positioning.hindsight import hindsight_positions
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import TrackPosition
 from antikol.sim import Route, SimulationResult
@@ -319,6 +320,7 @@ def evaluate_fixes(
     config: PositioningConfig | None = None,
     tolerance_m: float = 8.0,
     track_tolerance_m: float = 30.0,
+    hindsight: bool = False,
 ) -> list[FixEvaluation]:
     """Run positioning over a simulation's reports and judge every estimate.
 
@@ -335,6 +337,10 @@ def evaluate_fixes(
     track_tolerance_m : float
         Along-track tolerance of a ``right_track`` estimate, m (a right-track estimate
         may still be off along the track).
+    hindsight : bool
+        Judge the positions the whole run gives each report
+        (:func:`~antikol.positioning.hindsight.hindsight_positions`) instead of those
+        positioning gave right after it.
 
     Returns
     -------
@@ -345,30 +351,26 @@ def evaluate_fixes(
     pos = Positioner(net, config)
     switch_at = {v: _facing_switch_distances(net, specs[v].route) for v in specs}
     reports = sorted(result.reports, key=lambda r: r.t)
-    rows: list[dict[str, Any]] = []
+    estimates: list[Any] = []
     i = 0
     while i < len(reports):
         j = i
         while j < len(reports) and reports[j].t == reports[i].t:
             j += 1
-        batch = reports[i:j]
-        estimates = pos.update_many(batch)
-        for r, est in zip(batch, estimates, strict=True):
-            if _antenna_before_route(result, specs[r.vehicle_id], r.t):
-                continue  # the truth has no track position for it: nothing to judge
-            rows.append(
-                _judge(
-                    net,
-                    result,
-                    specs[r.vehicle_id],
-                    r,
-                    est,
-                    switch_at,
-                    tolerance_m,
-                    track_tolerance_m,
-                )
-            )
+        estimates.extend(pos.update_many(reports[i:j]))
         i = j
+    if hindsight:
+        c = config or PositioningConfig()
+        estimates = hindsight_positions(net, reports, estimates, confidence=c.confidence)
+    rows: list[dict[str, Any]] = []
+    for r, est in zip(reports, estimates, strict=True):
+        if _antenna_before_route(result, specs[r.vehicle_id], r.t):
+            continue  # the truth has no track position for it: nothing to judge
+        rows.append(
+            _judge(
+                net, result, specs[r.vehicle_id], r, est, switch_at, tolerance_m, track_tolerance_m
+            )
+        )
     if not rows:
         return []
     xs = np.array([row.pop("true_x") for row in rows])
@@ -469,6 +471,7 @@ def positioning_accuracy(
     config: PositioningConfig | None = None,
     tolerance_m: float = 8.0,
     track_tolerance_m: float = 30.0,
+    hindsight: bool = False,
 ) -> PositioningScore:
     """Run the positioning filter over a simulation's reports and score it against truth.
 
@@ -483,13 +486,20 @@ def positioning_accuracy(
     track_tolerance_m : float
         The same tolerance for being on the right track (confident-and-wrong, reliability),
         m.
+    hindsight : bool
+        Score the positions the whole run gives each report (see :func:`evaluate_fixes`).
 
     Returns
     -------
     PositioningScore
     """
     evs = evaluate_fixes(
-        net, result, config=config, tolerance_m=tolerance_m, track_tolerance_m=track_tolerance_m
+        net,
+        result,
+        config=config,
+        tolerance_m=tolerance_m,
+        track_tolerance_m=track_tolerance_m,
+        hindsight=hindsight,
     )
     errs = [e.along_error_m for e in evs if not math.isnan(e.along_error_m)]
     raw = [e.raw_along_error_m for e in evs if not math.isnan(e.raw_along_error_m)]
