@@ -140,6 +140,19 @@ def _position(net, t: float, hyps: tuple[Hypothesis, ...], *, shown: bool = True
     )
 
 
+def _assert_a_connected_path(net, later) -> None:
+    """Successive places are connected by a permitted move; probabilities in [0, 1]."""
+    for a, b in itertools.pairwise(later):
+        step = track_step_m(
+            net,
+            (a.edge_id, a.offset_m, a.direction),
+            (b.edge_id, b.offset_m, b.direction),
+            cutoff_m=reach_m(b.t - a.t),
+        )
+        assert step is not None
+    assert all(0.0 <= p.probability <= 1.0 for p in later)
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     shares=st.lists(
@@ -167,15 +180,7 @@ def test_the_path_is_connected_wherever_the_hypotheses_connect(branch_map, share
         positions.append(_position(net, float(k), tuple(hyps if main_first else hyps[::-1])))
     later = hindsight_positions(net, reports, positions)
     assert len({p.edge_id for p in later}) == 1  # the two branches never meet again
-    for a, b in itertools.pairwise(later):
-        step = track_step_m(
-            net,
-            (a.edge_id, a.offset_m, a.direction),
-            (b.edge_id, b.offset_m, b.direction),
-            cutoff_m=reach_m(b.t - a.t),
-        )
-        assert step is not None
-    assert all(0.0 <= p.probability <= 1.0 for p in later)
+    _assert_a_connected_path(net, later)
 
 
 @settings(max_examples=60, deadline=None)
@@ -208,14 +213,6 @@ def test_a_track_the_hypotheses_lost_for_a_while_is_bridged(branch_map, shares, 
             )
         positions.append(_position(net, float(k), hyps))
     later = hindsight_positions(net, reports, positions)
-    for a, b in itertools.pairwise(later):
-        step = track_step_m(
-            net,
-            (a.edge_id, a.offset_m, a.direction),
-            (b.edge_id, b.offset_m, b.direction),
-            cutoff_m=reach_m(b.t - a.t),
-        )
-        assert step is not None
-    assert all(0.0 <= p.probability <= 1.0 for p in later)
+    _assert_a_connected_path(net, later)
     if later[-1].edge_id == branch:
         assert all(p.edge_id == branch for p in later)
