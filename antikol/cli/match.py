@@ -311,7 +311,7 @@ def _write_positions(path: Path, fixes: Sequence[Any], later: Sequence[Any]) -> 
         w = csv.writer(fh)
         w.writerow(POSITION_CSV_COLUMNS)
         for f, h in zip(fixes, later, strict=True):
-            r, p, q = f.report, f.position, h.position
+            r, p = f.report, f.position
             w.writerow(
                 [
                     r.vehicle_id,
@@ -322,27 +322,32 @@ def _write_positions(path: Path, fixes: Sequence[Any], later: Sequence[Any]) -> 
                     _cell(r.course_deg, 1),
                     _cell(r.odometer_m, 1),
                     _cell(f.has_fix),
-                    p.status,
-                    _cell(p.edge_id),
-                    _cell(p.direction),
-                    _cell(p.offset_m, 2),
-                    _cell(p.lat if f.matched else None, 7),
-                    _cell(p.lon if f.matched else None, 7),
+                    *_place_cells(f),
                     _cell(p.heading_deg, 1),
                     _cell(p.probability, 3),
                     _cell(p.sigma_m, 2),
                     _cell(p.wrong_way),
                     _cell(p.dead_reckoned_s, 1),
-                    q.status,
-                    _cell(q.edge_id),
-                    _cell(q.direction),
-                    _cell(q.offset_m, 2),
-                    _cell(q.lat if h.matched else None, 7),
-                    _cell(q.lon if h.matched else None, 7),
-                    _cell(q.probability, 3),
+                    *_place_cells(h),
+                    _cell(h.position.probability, 3),
                 ]
             )
     return len(fixes)
+
+
+def _place_cells(fix: Any) -> list[str]:
+    """Status, edge, direction, offset and track lat/lon of a matched fix's position."""
+    from antikol.evaluation.replay import csv_cell as _cell
+
+    p = fix.position
+    return [
+        p.status,
+        _cell(p.edge_id),
+        _cell(p.direction),
+        _cell(p.offset_m, 2),
+        _cell(p.lat if fix.matched else None, 7),
+        _cell(p.lon if fix.matched else None, 7),
+    ]
 
 
 def _write_text(path: Path, text: str) -> None:
