@@ -53,6 +53,7 @@ from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
+from antikol.positioning.outputs import asked_time
 from antikol.positioning.records import (
     DiscreteFix,
     FixPoint,
@@ -476,7 +477,7 @@ class Analyser:
         if self._source is None or vehicle_id not in self.table:
             return None
         self._flush()
-        when = self.table.clock if t is None else t
+        when = self._now(t)
         if as_placed:
             return positions_of(self._source, [vehicle_id], when, as_placed=True)[0]
         return self._source.position(vehicle_id, when)
@@ -536,7 +537,7 @@ class Analyser:
             # a control room without a map: every vehicle's assessment of the time is
             # built at its first question, the others are look-ups
             self._expire(t)
-            now = self.table.clock if t is None else float(t)
+            now = self._now(t)
             key = (now, self._version)
             if self._sector_assessed[0] != key:
                 self._sector_assessed = (key, self._assess_sector_fleet(now))
@@ -556,7 +557,7 @@ class Analyser:
         own = self.table.get(vid)
         if own is None:
             raise UnknownVehicleError(f"no current report of vehicle {vid!r}")
-        now = self.table.clock if t is None else float(t)
+        now = self._now(t)
         hits = self._sector_hits(own, now)
         if self.track_map is None:
             plain = [self._sector_threat(own, self._report(h.vehicle_id), h) for h in hits]
@@ -617,7 +618,7 @@ class Analyser:
         vid = own_id if own_id is not None else self.own_id
         if vid is None or self.track_map is None or vid not in self.table:
             return []
-        view = self._refresh(self.table.clock if t is None else float(t)).expand(vid)
+        view = self._refresh(self._now(t)).expand(vid)
         if not view.matched:
             return []
         out = []
@@ -670,6 +671,17 @@ class Analyser:
         return out
 
     # -- building blocks -----------------------------------------------------------------
+    def _now(self, t: float | None) -> float:
+        """The time asked for, s: ``t``, else the table's clock; before the table has a
+        clock (on board, until the own vehicle's first report) the newest report held."""
+        asked = asked_time(t)  # (InvalidArgumentError unless a finite number)
+        if asked is not None:
+            return asked
+        clock = self.table.clock
+        if math.isfinite(clock):
+            return clock
+        return max((r.t for r in self.table), default=clock)
+
     def _expire(self, t: float | None) -> list[str]:
         dropped = self.table.expire(t)
         for gone in dropped:

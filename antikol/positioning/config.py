@@ -8,7 +8,22 @@ from dataclasses import dataclass, fields
 from antikol.errors import InvalidArgumentError
 from antikol.thresholds import FILTER_NIS_GATE
 
-__all__ = ["PositioningConfig"]
+__all__ = ["MAX_HDOP", "PositioningConfig", "hdop_factor"]
+
+#: The largest HDOP a fix's error is scaled by: the most NMEA's field states (a receiver
+#: without a solution writes it); a larger one tells no more, and an unbounded one made a
+#: fix's error and the search around it infinite.
+MAX_HDOP = 99.99
+
+
+def hdop_factor(hdop: float | None) -> float:
+    """The factor of a fix's error for its reported HDOP: 1 without one, at least 1 (the
+    configured errors are those of a good fix), at most :data:`MAX_HDOP`.
+
+    >>> hdop_factor(None), hdop_factor(0.7), hdop_factor(2.5), hdop_factor(1e200)
+    (1.0, 1.0, 2.5, 99.99)
+    """
+    return 1.0 if hdop is None else min(max(1.0, hdop), MAX_HDOP)
 
 
 @dataclass(frozen=True, slots=True)

@@ -78,7 +78,7 @@ from typing import Final, NamedTuple
 
 import numpy as np
 
-from antikol.positioning.config import PositioningConfig
+from antikol.positioning.config import PositioningConfig, hdop_factor
 from antikol.positioning.fleet import FleetState, FloatArray, IntArray
 from antikol.positioning.latency import forget_latency
 from antikol.report import VehicleReport
@@ -452,5 +452,4 @@ def _white_m(config: PositioningConfig, report: VehicleReport | None) -> float:
     """The white noise of a report's fix, m (its fix quality's, times its HDOP)."""
     if report is None:
         return config.error_scales(None)[0]
-    hdop = 1.0 if report.hdop is None else max(1.0, report.hdop)
-    return config.error_scales(report.fix_quality)[0] * hdop
+    return config.error_scales(report.fix_quality)[0] * hdop_factor(report.hdop)

@@ -178,13 +178,11 @@ class Positioner:
         Returns
         -------
         TrackPosition
-            The vehicle's position after the report (unchanged if the report was rejected).
+            The vehicle's position after the report (unchanged if the report was rejected;
+            ``unmatched`` at the report if no report of the vehicle was ever taken).
         """
         self.update_many([report], outputs=False)
-        out = self.position(report.vehicle_id)
-        if out is None:  # pragma: no cover - a fused report always leaves a state
-            raise RuntimeError(f"no state for {report.vehicle_id!r} after an update")
-        return out
+        return self.position(report.vehicle_id) or unmatched_position(report, report.t)
 
     @gc_paused
     def update_many(
@@ -203,7 +201,8 @@ class Positioner:
         Returns
         -------
         list of TrackPosition
-            In the order of ``reports`` (empty when ``outputs`` is False).
+            One per report, in their order (empty when ``outputs`` is False): each vehicle's
+            position after its last report here, as :meth:`update` gives it.
         """
         reports = in_recognised_units(self._f, self._row, reports)
         ids = [r.vehicle_id for r in reports]
@@ -219,7 +218,8 @@ class Positioner:
         again = [vid for vid, pos in final.items() if pos is None]
         if again:
             final.update(zip(again, self.positions(again), strict=True))
-        return [pos for vid in ids if (pos := final[vid]) is not None]
+        last = {r.vehicle_id: r for r in reports}  # (a vehicle none of whose reports was taken)
+        return [final[v] or unmatched_position(last[v], last[v].t) for v in ids]
 
     def _remember(self, reports: list[VehicleReport]) -> dict[str, TrackPosition]:
         """Place the vehicles at their new reports' times and remember where (the switch

@@ -32,7 +32,7 @@ import numpy.typing as npt
 
 from antikol.positioning.biasscale import bias_sigma_of
 from antikol.positioning.candidates import Candidates
-from antikol.positioning.config import PositioningConfig
+from antikol.positioning.config import PositioningConfig, hdop_factor
 from antikol.positioning.fixerror import (
     FIX_ERROR_FIELDS,
     FixErrorState,
@@ -147,7 +147,7 @@ def score_fixes(
     stats: Counter[str] = Counter()
     c = config
     n = len(reports)
-    hdop = np.fromiter((1.0 if r.hdop is None else max(1.0, r.hdop) for r in reports), float, n)
+    hdop = np.fromiter((hdop_factor(r.hdop) for r in reports), float, n)
     quality = [r.fix_quality for r in reports]
     kinds = {q: c.error_scales(q) for q in set(quality)}
     if len(kinds) == 1:  # (a fleet's receivers mostly report one kind of fix)
