@@ -68,3 +68,13 @@ def test_on_board_before_the_own_vehicles_first_report(krakow):
     assert isinstance(an.zones("T2"), list)
     an.update(_report("T1", 6.0, LON_NEXT))
     assert an.assess().t == 6.0
+
+
+def test_a_position_asked_for_absurdly_far_ahead_is_lost_not_nan(krakow):
+    pos = antikol.Positioner(krakow)
+    for t in range(5):  # an odometer: dead reckoning runs out only by its distance
+        pos.update(_report("T1", float(t), LON + 8e-5 * t, odometer_m=6.0 * t))
+    for t in (1e200, 1.7e308):
+        ahead = pos.position("T1", t)
+        assert ahead.status == "lost"
+        assert ahead.sigma_m is not None and not math.isnan(ahead.sigma_m)

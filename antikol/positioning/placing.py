@@ -12,6 +12,7 @@ with the same numbers either way (a test compares the two).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -129,6 +130,7 @@ def place_vehicles(
     """
     n = len(vehicle_ids)
     s, v, s_std = estimate
+    s_std = np.where(np.isnan(s_std), np.inf, s_std)  # (an absurd time: no bound on it)
 
     def one_at_a_time(i: int) -> Placement:
         return place_one(
@@ -212,6 +214,7 @@ def place_one(
     speed, sigma: m, m/s, m), its hypotheses and where it was placed before (``basis``:
     edge, direction); see :func:`place_vehicles`."""
     s, v, s_std = estimate
+    s_std = math.inf if math.isnan(s_std) else s_std  # (as in place_vehicles)
     c = config
     last = fleet.last[row]
     if last is None:  # pragma: no cover - only vehicles with a report are placed
