@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import LineString
 
+from antikol.errors import InvalidArgumentError
 from antikol.evaluation.consistency import disconnected_windows, in_hindsight, match_reports
 from antikol.positioning.hindsight import hindsight_positions, reach_m, track_step_m
 from antikol.positioning.matcher import Positioner
@@ -114,11 +115,51 @@ def test_reports_and_positions_must_pair_up(branch_map):
         hindsight_positions(net, [], [_position(net, 0.0, ())])
 
 
+def test_each_vehicles_reports_must_come_in_time_order(branch_map):
+    board, net = branch_map
+    lon, lat = board.lonlat(400.0, 0.0)
+    reports = [
+        VehicleReport(v, t, lat, lon, speed_mps=0.0, course_deg=90.0)
+        for v, t in (("T1", 5.0), ("T2", 1.0), ("T1", 5.0), ("T1", 4.0))
+    ]
+    positions = [replace(_position(net, r.t, ()), vehicle_id=r.vehicle_id) for r in reports]
+    with pytest.raises(InvalidArgumentError, match=r"report 3 of 'T1'.*time order"):
+        hindsight_positions(net, reports, positions)
+    # the same time twice, and another vehicle's earlier report between, are in order
+    assert hindsight_positions(net, reports[:3], positions[:3]) == positions[:3]
+
+
 def test_a_report_without_hypotheses_keeps_its_online_position(branch_map):
     _, net = branch_map
     report = VehicleReport("T3", 0.0, 54.39, 18.64, 0.0, 0.0)
     lost = _position(net, 0.0, ())
     assert hindsight_positions(net, [report], [lost]) == [lost]
+
+
+@settings(max_examples=40, deadline=None)
+@given(p_first=st.floats(0.51, 0.99), first_on_branch=st.booleans())
+def test_a_position_held_at_a_switch_and_its_hypothesis_are_one(
+    branch_map, p_first, first_on_branch
+):
+    """A position held at the switch behind it stands for its first hypothesis, as does
+    that hypothesis' own place past the switch: together they outweigh a second hypothesis
+    with less probability (each alone has half; the second won when above the half)."""
+    board, net = branch_map
+    approach = _edge_at(board, net, 50.0, 0.0)
+    main, branch = _edge_at(board, net, 300.0, 0.0), _edge_at(board, net, 200.0, 4.0)
+    first, second = (branch, main) if first_on_branch else (main, branch)
+    hyps = (
+        Hypothesis(first, 1, 10.0, p_first, 10.0),
+        Hypothesis(second, 1, 10.0, 1 - p_first, 10.0),
+    )
+    lon, lat = board.lonlat(110.0, 2.0)
+    report = VehicleReport("T9", 0.0, lat, lon, speed_mps=5.0, course_deg=90.0)
+    held = replace(
+        _position(net, 0.0, hyps), edge_id=approach, direction=1, offset_m=net.edge_length(approach)
+    )
+    later = hindsight_positions(net, [report], [held])[0]
+    assert later.edge_id in (approach, first)
+    assert later.probability == pytest.approx(p_first)
 
 
 def _position(net, t: float, hyps: tuple[Hypothesis, ...], *, shown: bool = True):

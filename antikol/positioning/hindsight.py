@@ -21,7 +21,9 @@ smoother over them:
   permitted moves (:func:`track_step_m`, the rule of the 10-s window check in
   :mod:`antikol.evaluation.consistency`), weighed against the distance the vehicle ran
   (its odometer, else its speeds) on the matcher's Laplace scale; a place the other cannot
-  reach has no move;
+  reach has no move. A place's moves share one: they say which of the next report's
+  places it leads to, not how likely the place itself is (the online probabilities have
+  already weighed every place's run against the distance run);
 * **probabilities** — each place's probability given the whole log, by the discrete
   Rauch–Tung–Striebel recursion from the last report back: the online probability times
   how well its moves lead to where the later reports put the vehicle;
@@ -32,9 +34,10 @@ smoother over them:
   place there, and the path starts again after that report.
 
 A vehicle not shown online at a report (a fresh start whose fixes did not yet tell its
-track, a coin toss over a switch in an outage) is placed in hindsight wherever it has
-hypotheses. Reports without hypotheses (no track near, never matched) keep their online
-position and split the log into separate paths.
+track, a coin toss over a switch in an outage), or shown ``lost`` (dead-reckoned for too
+long), is placed in hindsight wherever it has hypotheses. Reports without hypotheses
+(no track near, never matched) keep their online position and split the log into
+separate paths.
 
 This is an offline tool: the on-board unit has no later fixes, and its lamp rests on the
 online positions. ``antikol match`` reports both.
@@ -68,7 +71,9 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from antikol.errors import InvalidArgumentError
 from antikol.kinds import PositionStatus
+from antikol.positioning.branching import STEP_BACK_M  # (a step back no window counts)
 from antikol.positioning.records import TrackPosition
 from antikol.report import VehicleReport
 from trackmap import TrackMap
@@ -90,8 +95,6 @@ __all__ = [
 MAX_SPEED_MPS = 25.0
 #: Reach of a move beyond ``MAX_SPEED_MPS`` times the time between the reports, m.
 REACH_MARGIN_M = 30.0
-#: A filtered position may step back this far along its track between reports, m.
-STEP_BACK_M = 10.0
 #: How far back a place is looked for that reaches the place chosen after a report when
 #: no place at that report does (the online hypotheses lost the vehicle's track), s.
 BRIDGE_S = 15.0
@@ -200,17 +203,28 @@ def hindsight_positions(
 
     Raises
     ------
-    ValueError
-        When ``reports`` and ``positions`` differ in length.
+    InvalidArgumentError
+        When ``reports`` and ``positions`` differ in length, or a vehicle's reports go
+        back in time.
     """
     if len(reports) != len(positions):
-        raise ValueError(
-            f"{len(reports)} reports but {len(positions)} positions: one position per report"
+        raise InvalidArgumentError(
+            "positions",
+            len(positions),
+            f"one position per report, and there are {len(reports)} reports",
         )
     out = list(positions)
     per_vehicle: dict[str, list[int]] = defaultdict(list)
     for i, r in enumerate(reports):
-        per_vehicle[r.vehicle_id].append(i)
+        before = per_vehicle[r.vehicle_id]
+        if before and r.t < reports[before[-1]].t:
+            raise InvalidArgumentError(
+                "reports",
+                f"report {i} of {r.vehicle_id!r} at t = {r.t} s",
+                f"each vehicle's reports in time order (its report {before[-1]} is at "
+                f"t = {reports[before[-1]].t} s)",
+            )
+        before.append(i)
     for idx in per_vehicle.values():
         places = []
         moved: tuple[float, float] | None = None  # (time, m) where the filter last showed it
@@ -342,20 +356,20 @@ def _smooth_run(
     # Rauch-Tung-Striebel step) and the path, one report at a time
     smoothed: list[FloatArray] = [filtered[-1]] * n
     chosen = [0] * n
-    chosen[-1] = int(np.argmax(smoothed[-1]))
+    chosen[-1] = _pick(places[-1], smoothed[-1])
     result: list[tuple[_Place, float] | None] = [None] * n
     k = n - 2
     while k >= 0:
         smoothed[k] = _smoothed(filtered[k], moves[k + 1], smoothed[k + 1])  # type: ignore[arg-type]
         weight = filtered[k] * moves[k + 1][:, chosen[k + 1]]  # type: ignore[index]
         if weight.max() > 0.0:
-            chosen[k] = int(np.argmax(weight))
+            chosen[k] = _pick(places[k], weight)
             k -= 1
             continue
         bridge = _bridge(net, reports, places, filtered, k, places[k + 1][chosen[k + 1]])
         if bridge is None:
             # no place connects to the one chosen after it: the path starts again here
-            chosen[k] = int(np.argmax(smoothed[k]))
+            chosen[k] = _pick(places[k], smoothed[k])
             k -= 1
             continue
         j, a, between = bridge
@@ -374,6 +388,17 @@ def _smooth_run(
         or (places[k][chosen[k]], _state_probability(net, places[k], smoothed[k], chosen[k]))
         for k in range(n)
     ]
+
+
+def _pick(places: tuple[_Place, ...], weight: FloatArray) -> int:
+    """The place with the most ``weight`` of the hypothesis with the most: a position held
+    at a switch and its first hypothesis' own place are one hypothesis, each with half its
+    probability, and a second hypothesis with more than that half is still less likely
+    (their tie goes to the place shown online)."""
+    hypothesis = np.array([pl.hypothesis for pl in places])
+    total = np.array([weight[hypothesis == h].sum() for h in hypothesis])
+    shown = np.array([pl.shown for pl in places])
+    return int(np.lexsort((shown, weight, total))[-1])
 
 
 def _bridge(
