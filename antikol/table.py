@@ -22,7 +22,12 @@ forget the own vehicle:
   reports, or a later time passed by the caller (:meth:`expire`, the analyser's
   ``assess(t=...)``; the on-board unit passes its local clock this way through an own GPS
   outage). Until the own vehicle has reported, other reports are held provisionally;
-  when the clock starts, those more than ``clock_window_s`` ahead of it are dropped.
+  when the clock starts, those more than ``clock_window_s`` ahead of it are dropped
+  (``stats["dropped_ahead"]``). An own report far ahead of the real time (a GPS date or
+  week-rollover glitch) moves the clock with it; when the next two own reports lie more
+  than ``clock_window_s`` behind it and agree with each other (newer, within
+  ``expiry_s``), the clock goes back to them (``stats["clock_rewound"]``) and the own
+  vehicle's state restarts (it is listed in the update's ``expired``).
 * **control room** (no ``own_id``): the clock is the *upper median* of the newest times of
   the last 32 distinct vehicles whose reports were accepted (or, with ``time_source``,
   the time it returns), and never goes back; the caller's times move it too. A minority
@@ -30,7 +35,10 @@ forget the own vehicle:
   of them. If the first report was dated far ahead, more distinct senders disagreeing
   with the clock (their reports older than ``clock_window_s`` behind it) than recently
   accepted ones reset it to their median (``stats["clock_reset"]``) and the reports far
-  ahead of it are dropped.
+  ahead of it are dropped. After a gap in the feed longer than ``clock_window_s``, every
+  sender comes back ahead of the clock: once most of the senders heard (recently accepted
+  or refused as ahead) are refused as ahead, the clock moves forward to their median
+  (``stats["clock_forward"]``) and the report is judged again.
 
 A report of another vehicle more than ``clock_window_s`` (default 30 s) ahead of the clock
 is rejected (outcome ``out_of_window``); one older than ``expiry_s`` behind it is
@@ -74,6 +82,7 @@ import numpy as np
 
 from antikol.analysis.geometry import paper_offsets
 from antikol.errors import InvalidArgumentError
+from antikol.numeric import finite_float, why_not_finite
 from antikol.report import MAX_SPEED_MPS, VehicleReport
 
 __all__ = [
@@ -150,6 +159,9 @@ class _RecentSenders:
 
     def __len__(self) -> int:
         return len(self._times)
+
+    def __contains__(self, vid: object) -> bool:
+        return vid in self._times
 
     def put(self, vid: str, t: float) -> None:
         """Record a sender's newest time (it becomes the most recent sender)."""
@@ -259,6 +271,8 @@ class VehicleTable:
         self._explicit: float = -math.inf
         self._recent = _RecentSenders(_RECENT_SENDERS)
         self._dissent: OrderedDict[str, float] = OrderedDict()
+        self._ahead: OrderedDict[str, float] = OrderedDict()
+        self._own_behind: float | None = None
         self._pending: OrderedDict[str, VehicleReport] = OrderedDict()
         self._new_period: int | None = None
         self._new_count = 0
@@ -315,7 +329,7 @@ class VehicleTable:
         for vid in gone:
             del self._reports[vid]
             self._recent.pop(vid)
-            self.stats["out_of_window"] += 1
+            self.stats["dropped_ahead"] += 1  # (not a refused report: out_of_window)
             logger.info("vehicle %s dropped: dated beyond the table clock %.1f", vid, self._clock)
         return gone
 
@@ -339,7 +353,61 @@ class VehicleTable:
         self._clock = max(median, self._explicit)
         self._recent = _RecentSenders(_RECENT_SENDERS, self._dissent.items())
         self._dissent.clear()
+        self._ahead.clear()
         return self._drop_ahead()
+
+    def _ahead_from(self, vid: str, t: float) -> list[str]:
+        """Control room: a sender far ahead of the clock; move the clock to the senders
+        ahead once they are most of the senders heard (the feed was silent for longer than
+        the window: without this, every report after the gap was ``out_of_window`` and the
+        clock never moved again)."""
+        ahead = self._ahead
+        ahead[vid] = t
+        ahead.move_to_end(vid)
+        while len(ahead) > _RECENT_SENDERS:
+            ahead.popitem(last=False)
+        heard = len(self._recent) + sum(1 for v in ahead if v not in self._recent)
+        if self.time_source is not None or 2 * len(ahead) <= heard:
+            return []
+        times = sorted(ahead.values())
+        median = times[(len(times) - 1) // 2]
+        logger.warning(
+            "table clock %.1f moved forward to %.1f: %d of %d senders are ahead of it",
+            self._clock,
+            median,
+            len(times),
+            heard,
+        )
+        self.stats["clock_forward"] += 1
+        self._clock = max(median, self._clock)
+        self._recent = _RecentSenders(_RECENT_SENDERS, ahead.items())
+        ahead.clear()
+        self._dissent.clear()
+        return self._sweep([])
+
+    def _rewind_own(self, report: VehicleReport) -> bool:
+        """On board: whether this own report, far behind the stored own report, is the
+        second in a row that agrees with the one before it, so that the stored one was a
+        glitch (a GPS date or week-rollover error dated a day ahead); the clock then goes
+        back to it. Without this, one glitched own fix made every later report ``stale``
+        until the real time caught up with it."""
+        stored = self._reports.get(report.vehicle_id)
+        window = self.clock_window_s
+        if stored is None or window is None or report.t >= stored.t - window:
+            self._own_behind = None
+            return False
+        before, self._own_behind = self._own_behind, report.t
+        if before is None or not 0.0 < report.t - before <= self.expiry_s:
+            return False
+        logger.warning(
+            "own report dated %.1f s before the stored one (t=%.1f): table clock rewound",
+            stored.t - report.t,
+            stored.t,
+        )
+        self.stats["clock_rewound"] += 1
+        self._own_behind = None
+        self._clock = self._explicit = report.t
+        return True
 
     # -- updates -------------------------------------------------------------------------
     def expire(self, now: float | None = None) -> list[str]:
@@ -355,7 +423,16 @@ class VehicleTable:
         -------
         list of str
             Ids of the removed vehicles (never the own vehicle).
+
+        Raises
+        ------
+        InvalidArgumentError
+            ``now`` is not a finite number (nothing is changed).
         """
+        if now is not None:
+            if finite_float(now) is None:
+                raise InvalidArgumentError("now", now, why_not_finite(now))
+            now = float(now)
         if now is None and self.time_source is None:
             # the clock stands still: nothing to do unless the oldest entry is due (the
             # common case, checked at every report and every assessment)
@@ -364,7 +441,7 @@ class VehicleTable:
                 return []
             return self._sweep([])
         gone: list[str] = []
-        if now is not None and math.isfinite(now):
+        if now is not None:
             self._explicit = max(self._explicit, float(now))
             gone += self._advance(float(now))
         if self.time_source is not None:
@@ -415,13 +492,24 @@ class VehicleTable:
         """
         vid = report.vehicle_id
         own = vid == self.own_id
-        if own or self.time_source is not None:
+        rewound = own and self._rewind_own(report)
+        if rewound:
+            # the glitch's state goes: its own report, and the reports dated after it
+            del self._reports[vid]
+            expired = [vid, *self._drop_ahead()]
+        elif own or self.time_source is not None:
             expired = self.expire(report.t if own else None)
         else:  # expire() without a time, inlined: checked at every report
             heap = self._heap
             due = bool(heap) and heap[0][0] < self._clock - self.expiry_s
             expired = self._sweep([]) if due else []
         outcome = self._judge(report, own)
+        if outcome == "out_of_window" and self.own_id is None:
+            clock = self._clock
+            forward = self._ahead_from(vid, report.t)
+            if self._clock != clock:  # the report is judged again against the new clock
+                expired += forward
+                outcome = self._judge(report, own)
         if outcome is not None:
             if outcome == "stale" and self.own_id is None and not own:
                 window = self.clock_window_s
@@ -439,6 +527,8 @@ class VehicleTable:
             self._recent.put(vid, report.t)
             if self._dissent:
                 self._dissent.pop(vid, None)
+            if self._ahead:
+                self._ahead.pop(vid, None)
             median = self._recent.upper_median()  # the control-room clock
             moved = median is not None and median > self._clock
             if median is not None and moved:

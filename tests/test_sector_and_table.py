@@ -212,6 +212,8 @@ def test_reports_before_the_own_fix_are_judged_when_the_clock_starts():
     res = table.update(at("A", 0, 0, t=101.0))
     assert res.expired == ("X",) and set(table.vehicle_ids()) == {"A", "B"}
     assert table.update(at("X", 0, 60, t=5001.0)).outcome == "out_of_window"
+    # a vehicle dropped as the clock starts is not a refused report: the counts add up
+    assert table.stats["dropped_ahead"] == 1 and table.stats["out_of_window"] == 1
 
 
 def test_on_board_the_caller_drives_the_clock_through_an_own_gps_outage():
@@ -282,6 +284,71 @@ def test_control_room_clock_recovers_from_a_first_report_dated_far_ahead():
     assert table.stats["clock_reset"] == 1 and table.clock == 100.0
     assert "WILD" not in table
     assert table.update(at("V0", 0, 0, t=101.0)).accepted
+
+
+def test_control_room_clock_moves_on_after_a_gap_in_the_feed_longer_than_its_window():
+    # every report after a 45-s silence was out_of_window, and the clock never moved again
+    table = VehicleTable(capacity=None)
+    for t in (0.0, 1.0, 2.0):
+        for i in range(5):
+            table.update(at(f"V{i}", 0, 100 * i, t=t))
+    outcomes = [table.update(at(f"V{i}", 0, 100 * i, t=47.0)).outcome for i in range(5)]
+    # the third sender ahead is most of the five heard: the clock follows them, and
+    # that report and the later ones are judged against it
+    assert outcomes == ["out_of_window", "out_of_window", "registered", "registered", "registered"]
+    assert table.stats["clock_forward"] == 1 and table.clock == 47.0
+    assert {"V0", "V1"}.isdisjoint(table)  # expired: silent since t = 2
+    assert all(table.update(at(f"V{i}", 0, 100 * i, t=48.0)).accepted for i in range(5))
+
+
+def test_a_minority_of_senders_far_ahead_never_moves_the_control_room_clock():
+    table = VehicleTable(capacity=None)
+    for t in range(20):
+        for i in range(5):
+            table.update(at(f"V{i}", 0, 100 * i, t=float(t)))
+        for k in range(2):  # two wrong clocks, a day ahead, report all along
+            assert table.update(at(f"W{k}", 0, 50, t=86400.0 + t)).outcome == "out_of_window"
+    assert table.clock == 19.0 and table.stats["clock_forward"] == 0
+
+
+def test_on_board_one_own_report_dated_a_day_ahead_does_not_silence_the_unit():
+    # a GPS date glitch on the own receiver: before, every later report of every vehicle
+    # was stale until the real time caught up with it (a day)
+    table = VehicleTable(own_id="A")
+    for t in (0.0, 1.0, 2.0):
+        table.update(at("A", 0, 0, t=t))
+        table.update(at("B", 0, 100, t=t))
+    table.update(at("A", 0, 0, t=86402.0))
+    assert table.update(at("A", 0, 0, t=3.0)).outcome == "stale"  # one alone: no proof
+    assert table.update(at("B", 0, 100, t=3.0)).outcome == "stale"
+    back = table.update(at("A", 0, 0, t=4.0))  # the second in a row: the glitch was ahead
+    assert back.accepted and "A" in back.expired  # (the analyser restarts its state)
+    assert table.clock == 4.0 and table.stats["clock_rewound"] == 1
+    assert table.update(at("B", 0, 100, t=4.0)).accepted
+    assert table.update(at("A", 0, 0, t=5.0)).outcome == "updated"
+    # own reports going back a little, or far but not in a consistent run, never rewind
+    table.update(at("A", 0, 0, t=1000.0))
+    for t in (900.0, 500.0, 990.0):
+        assert table.update(at("A", 0, 0, t=t)).outcome == "stale"
+    assert table.clock == 1000.0 and table.stats["clock_rewound"] == 1
+
+
+def test_an_analyser_on_board_warns_again_soon_after_an_own_date_glitch():
+    from antikol import Analyser
+
+    def rep(vid, t, lon, course):
+        return VehicleReport(vid, t, 50.06, lon, 8.0, course)
+
+    an = Analyser(own_id="A")
+    for t in (0.0, 1.0, 2.0):
+        an.update_many([rep("A", t, 19.930, 90.0), rep("B", t, 19.932, 270.0)])
+    assert an.assess().level == "warning"
+    an.update(rep("A", 86402.0, 19.930, 90.0))
+    levels = []
+    for t in (3.0, 4.0, 5.0):
+        an.update_many([rep("A", t, 19.930, 90.0), rep("B", t, 19.932, 270.0)])
+        levels.append(an.assess().level)
+    assert levels == ["none", "warning", "warning"]
 
 
 def test_new_ids_per_second_are_capped_in_a_control_room():

@@ -32,12 +32,12 @@ import logging
 import math
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Literal
 
-from antikol.analysis.alarms import AlarmBook, AlarmPolicy
+from antikol.analysis.alarms import AlarmBook
 from antikol.analysis.assessment import Assessment, Suppressed, Threat, Zone, assessment_of
-from antikol.analysis.branches import BranchSettings
+from antikol.analysis.config import AnalyserConfig
 from antikol.analysis.conflicts import RuleSettings
 from antikol.analysis.coursekeeper import CourseKeeper
 from antikol.analysis.fleetsector import FleetSector, fleet_sector, sector_assessments
@@ -51,6 +51,7 @@ from antikol.gcpause import gc_paused
 from antikol.ingest.guard import ReplayGuard
 from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
+from antikol.numeric import finite_float
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.outputs import asked_time
@@ -61,10 +62,10 @@ from antikol.positioning.records import (
     TrackPosition,
     positions_of,
 )
-from antikol.positioning.reported import ReportedFirst, ReportedSettings
+from antikol.positioning.reported import ReportedFirst
 from antikol.report import VehicleReport
 from antikol.table import CLOCK_WINDOW_S, TableUpdate, VehicleTable
-from antikol.thresholds import EXPIRY_S, MIN_HORIZON_M, STANDING_SPEED_MPS, TABLE_CAPACITY
+from antikol.thresholds import EXPIRY_S, TABLE_CAPACITY
 from trackmap import TrackMap
 
 __all__ = ["Analyser", "AnalyserConfig", "PositionSource", "Zone"]
@@ -72,98 +73,6 @@ __all__ = ["Analyser", "AnalyserConfig", "PositionSource", "Zone"]
 logger = logging.getLogger(__name__)
 
 _ALARM_LEVELS = ("warning", "emergency")
-
-
-@dataclass(frozen=True, slots=True)
-class AnalyserConfig:
-    """Parameters of the track-aware analysis (SI units).
-
-    Attributes
-    ----------
-    min_horizon_m : float
-        Shortest look-ahead along the track, m (the paper's d_col by default).
-    warning_probability : float
-        A conflict raises more than an advisory when the probability of a warning-level
-        conflict over the match hypotheses and zones reaches this ...
-    emergency_probability : float
-        ... or when the probability of an emergency-level conflict reaches this (the
-        graver the consequence, the less probability it takes).
-    max_hypotheses : int
-        Hypotheses per vehicle evaluated.
-    min_hypothesis_probability : float
-        Hypotheses less probable than this are not evaluated.
-    wrong_way_evidence_s : float
-        A hypothesis of running against a one-way track raises more than an advisory only
-        after this long of consistent evidence, s.
-    window_slack_s : float
-        Merges and crossings: slack between the other vehicle's earliest arrival and the
-        own clearing time, s.
-    merge_accel_mps2, merge_max_speed_mps : float
-        Merges and crossings: how the other vehicle's earliest arrival is computed
-        (acceleration from its current speed, standing or not, up to a speed), m/s², m/s.
-    stopped_speed_mps : float
-        Below this speed a moving vehicle is taken to stand, m/s ...
-    start_speed_mps : float
-        ... and above this a standing one to move again, m/s (hysteresis: the speed over
-        ground of a standing receiver wanders).
-    closing_speed_mps : float
-        A gap closing slower than this does not need action now, m/s.
-    gap_margin_sigmas : float
-        Gaps are shortened by this many standard deviations of both vehicles' positions and
-        ends before the level is chosen (err towards warning).
-    anticipation_s : float
-        Gaps are also shortened by this many seconds of closing: the warning is on before
-        the limit is crossed, not a cycle after.
-    rear_end_model : {"on_sight", "moving_leader"}
-        ``on_sight`` (default): a closing follower must be able to stop before the leader as
-        before a standing obstacle (trams run on sight; a leader can stop abruptly).
-        ``moving_leader``: credit the leader's own braking distance (CBTC).
-    hysteresis : bool
-        Hold and release pair alarms by :attr:`alarms` (track method).
-    alarms : AlarmPolicy
-    branches : BranchSettings
-        How the branch a vehicle takes at a facing switch is weighed without a route.
-    corridor_half_width_m : float
-        Half-width of the corridor polygons drawn for zones, m.
-    parallel_distance_m : float
-        A suppressed vehicle this close to a zone counts as on a parallel track, m.
-    reported_positions : ReportedSettings or None
-        Use the track positions other vehicles report of themselves, after the checks of
-        :mod:`antikol.positioning.reported` (None: always match every vehicle here).
-    """
-
-    min_horizon_m: float = MIN_HORIZON_M
-    warning_probability: float = 0.3
-    emergency_probability: float = 0.1
-    max_hypotheses: int = 3
-    min_hypothesis_probability: float = 0.01
-    wrong_way_evidence_s: float = 10.0
-    window_slack_s: float = 6.0
-    merge_accel_mps2: float = 1.0
-    merge_max_speed_mps: float = 14.0
-    stopped_speed_mps: float = STANDING_SPEED_MPS
-    start_speed_mps: float = 1.0
-    closing_speed_mps: float = 0.3
-    gap_margin_sigmas: float = 2.0
-    anticipation_s: float = 2.0
-    rear_end_model: Literal["on_sight", "moving_leader"] = "on_sight"
-    hysteresis: bool = True
-    alarms: AlarmPolicy = field(default_factory=AlarmPolicy)
-    branches: BranchSettings = field(default_factory=BranchSettings)
-    corridor_half_width_m: float = 1.7
-    parallel_distance_m: float = 10.0
-    reported_positions: ReportedSettings | None = field(default_factory=ReportedSettings)
-
-    def __post_init__(self) -> None:
-        for name in ("warning_probability", "emergency_probability", "min_hypothesis_probability"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise InvalidArgumentError(name, getattr(self, name), "must be in [0, 1]")
-        if self.max_hypotheses < 1:
-            raise InvalidArgumentError("max_hypotheses", self.max_hypotheses, "must be >= 1")
-        if self.rear_end_model not in ("on_sight", "moving_leader"):
-            raise InvalidArgumentError(
-                "rear_end_model", self.rear_end_model, "must be 'on_sight' or 'moving_leader'"
-            )
 
 
 class Analyser:
@@ -227,6 +136,15 @@ class Analyser:
         time_source: Callable[[], float] | None = None,
         position_source: PositionSource | None = None,
     ) -> None:
+        if track_map is not None and not isinstance(track_map, TrackMap):
+            raise InvalidArgumentError(
+                "track_map", track_map, "must be a trackmap.TrackMap or None"
+            )
+        if own_id is not None:
+            _check_vehicle_id(own_id, "own_id")
+        expiry = finite_float(expiry_s)
+        if expiry is None or expiry <= 0.0:
+            raise InvalidArgumentError("expiry_s", expiry_s, "must be a positive number of seconds")
         self.track_map = track_map
         self.sector = sector if sector is not None else SectorRule()
         self.own_id = own_id
@@ -345,6 +263,7 @@ class Analyser:
         TableUpdate
             What the vehicle table did with it.
         """
+        _check_report(report)
         result = self._table_update(report)
         if self._source is not None and result.accepted:
             self._pending.append(report)
@@ -357,6 +276,11 @@ class Analyser:
         together, in one vectorised update, when a position or an assessment is next asked
         for. One report the positioning cannot use never stops the others: it is counted
         in :attr:`stats` and the vehicle keeps its previous state."""
+        if isinstance(reports, VehicleReport) or not isinstance(reports, Iterable):
+            raise InvalidArgumentError("reports", reports, "must be an iterable of VehicleReport")
+        reports = list(reports)  # (a generator is read once: by the table, then positioning)
+        for r in reports:
+            _check_report(r)
         results = [self._table_update(r) for r in reports]
         if self._source is not None:
             self._pending.extend(r for r, res in zip(reports, results, strict=True) if res.accepted)
@@ -474,10 +398,11 @@ class Analyser:
             The position the analysis weighs: a vehicle not yet shown on a track
             (:attr:`TrackPosition.unplaced`) where its hypotheses place it.
         """
+        _check_vehicle_id(vehicle_id, "vehicle_id")
+        when = self._now(t)
         if self._source is None or vehicle_id not in self.table:
             return None
         self._flush()
-        when = self._now(t)
         if as_placed:
             return positions_of(self._source, [vehicle_id], when, as_placed=True)[0]
         return self._source.position(vehicle_id, when)
@@ -502,7 +427,10 @@ class Analyser:
     def expire(self, t: float) -> list[str]:
         """Drop the vehicles silent past the table's retention at time ``t``, s, as
         :meth:`assess_all` does first; returns their ids (fleet-scale positioning)."""
-        return self._expire(float(t))
+        asked = asked_time(t)
+        if asked is None:
+            raise InvalidArgumentError("t", t, "must be a finite time, s")
+        return self._expire(asked)
 
     @gc_paused
     def assess_all(self, *, t: float | None = None) -> dict[str, Assessment]:
@@ -531,6 +459,8 @@ class Analyser:
             No current report of ``own_id``.
         """
         vid = own_id if own_id is not None else self.own_id
+        if vid is not None:
+            _check_vehicle_id(vid, "own_id")
         if vid is None:
             raise UnknownVehicleError("assess() needs an own_id (none was configured)")
         if self.track_map is None and self.own_id is None:
@@ -616,6 +546,9 @@ class Analyser:
         Empty without a map or when the vehicle is not matched.
         """
         vid = own_id if own_id is not None else self.own_id
+        if vid is not None:
+            _check_vehicle_id(vid, "own_id")
+        asked_time(t)  # (checked before anything moves)
         if vid is None or self.track_map is None or vid not in self.table:
             return []
         view = self._refresh(self._now(t)).expand(vid)
@@ -683,6 +616,7 @@ class Analyser:
         return max((r.t for r in self.table), default=clock)
 
     def _expire(self, t: float | None) -> list[str]:
+        t = asked_time(t)  # (InvalidArgumentError before the clock moves)
         dropped = self.table.expire(t)
         for gone in dropped:
             self._forget(gone)
@@ -788,3 +722,14 @@ class Analyser:
 
     def _traction(self, vid: str) -> float:
         return self._profile(vid).traction_mps2
+
+
+def _check_vehicle_id(value: object, name: str) -> None:
+    """A vehicle id argument must be a string (a list raised "unhashable type")."""
+    if not isinstance(value, str):
+        raise InvalidArgumentError(name, value, "must be a vehicle id (str)")
+
+
+def _check_report(value: object) -> None:
+    if not isinstance(value, VehicleReport):
+        raise InvalidArgumentError("report", value, "must be a VehicleReport")
