@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import os
 import struct
+import tracemalloc
 import zlib
 from dataclasses import replace
 from pathlib import Path
@@ -201,6 +202,94 @@ def test_bad_key_files_name_the_field(tmp_path: Path, text: str, field: str) -> 
     assert isinstance(info.value, ValueError)
 
 
+HEX = "ab" * 16
+
+
+@pytest.mark.parametrize(
+    ("name", "shown"),
+    [
+        ('"²"', "keys.²"),  # isdigit() but no decimal digit: int() raised a bare ValueError
+        ('"١"', "keys.١"),  # an Arabic-Indic one was read as key id 1
+        ('"1١"', "keys.1١"),
+        ('" 1"', "keys. 1"),
+        ("65536", "keys.65536"),
+        ('"' + "9" * 5000 + '"', "keys.9999"),  # beyond int()'s 4300 digits: a bare ValueError
+    ],
+)
+def test_key_ids_are_ascii_integers_of_the_frames_range(
+    tmp_path: Path, name: str, shown: str
+) -> None:
+    """Found by a probe: key ids were read with str.isdigit() and int()."""
+    path = tmp_path / "k.toml"
+    path.write_text(f'scheme = "hmac-sha256"\n[keys]\n{name} = "{HEX}"\n', encoding="utf-8")
+    with pytest.raises(AuthConfigError, match="key ids are integers 0..65535") as info:
+        load_key_file(path)
+    assert str(path) in str(info.value) and shown in str(info.value)
+    assert len(str(info.value)) < 300  # a huge id is not echoed whole
+
+
+def test_key_ids_keep_their_leading_zeros_and_range(tmp_path: Path) -> None:
+    path = tmp_path / "k.toml"
+    path.write_text(
+        f'scheme = "hmac-sha256"\nsend_key = 7\n[keys]\n0 = "{HEX}"\n"00007" = "{HEX}"\n'
+        f'65535 = "{HEX}"\n'
+        f'"{"0" * 5000}1" = "{HEX}"\n'
+    )
+    keys = load_key_file(path)
+    assert keys.signer is not None and keys.signer.key_id == 7
+    assert sorted(keys.verifier._keys) == [0, 1, 7, 65535]  # type: ignore[attr-defined]
+
+
+def test_one_key_id_written_twice_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "k.toml"
+    path.write_text(f'scheme = "hmac-sha256"\n[keys]\n1 = "{HEX}"\n"01" = "{"cd" * 16}"\n')
+    with pytest.raises(AuthConfigError, match="key id 1") as info:
+        load_key_file(path)
+    assert str(path) in str(info.value) and "keys.01" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "value",
+    ["[" * 100_000 + "]" * 100_000, "{a=" * 3000 + "1" + "}" * 3000, "9" * 5000],
+)
+def test_deeply_nested_toml_or_huge_integers_are_key_file_errors(
+    tmp_path: Path, value: str
+) -> None:
+    """Found by a probe: tomllib's parser recursed until RecursionError, and let int()'s
+    bare ValueError for more than 4300 digits out."""
+    path = tmp_path / "k.toml"
+    path.write_text(f'scheme = "hmac-sha256"\nx = {value}\n')
+    with pytest.raises(AuthConfigError, match="not valid TOML") as info:
+        load_key_file(path)
+    assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ('scheme = "hmac-sha256"\n[keys]\n1 = "abcd"\n', "keys.1"),
+        ('scheme = "ed25519"\n[public_keys]\nT1 = "abcd"\n', "public_keys.T1"),
+        (
+            'scheme = "ed25519"\n[public_keys]\nT1 = "' + "00" * 32 + '"\n'
+            '[private_key]\nvehicle_id = "T1"\nkey = "00"\n',
+            "private_key.key",
+        ),
+    ],
+)
+def test_key_errors_of_the_signer_and_verifier_name_the_file(
+    tmp_path: Path, text: str, field: str
+) -> None:
+    """AuthConfigError promises the file in its message; the signer and verifier classes,
+    which check key lengths, know no file."""
+    if "ed25519" in text:
+        pytest.importorskip("cryptography")
+    path = tmp_path / "k.toml"
+    path.write_text(text)
+    with pytest.raises(AuthConfigError) as info:
+        load_key_file(path)
+    assert info.value.field == f"{path}: {field}"
+
+
 def test_private_key_must_match_its_public_key(tmp_path: Path) -> None:
     files = generate_key_files(tmp_path, "ed25519", ["T1", "T2"])
     text = files["T1"].read_text()
@@ -341,3 +430,58 @@ def test_guard_refuses_a_frame_of_before_a_restart_that_fits_the_new_window() ->
     assert g.check(rep(65, 1.0), 1.0) is None
     assert g.check(rep(64, 0.0), 1.0) == "replay"
     assert g.check(rep(63, 1.0), 1.0) is None  # a late frame of the new numbering
+
+
+def test_guard_cost_of_a_huge_sequence_jump_is_bounded_by_its_window() -> None:
+    """Found by a probe: a number far ahead shifted the bitmap by the jump, up to 2**31
+    bits (a 256 MB integer a frame, from a single unauthenticated frame); a jump beyond
+    the window must start a fresh bitmap, at a cost bounded by the window alone."""
+    g = ReplayGuard(seq_window=64)
+    assert g.check(rep(0, 100.0), 100.0) is None
+    tracemalloc.start()
+    try:
+        for i in range(1, 4):
+            seq = i * (2**31 - 1) % 2**32  # each just under half the number space ahead
+            assert g.check(rep(seq, 100.0 + i * 0.01), 100.1) is None
+            assert g._senders["T2"].bitmap == 1  # every earlier number left the window
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 64 * 1024
+
+
+def test_guard_jump_beyond_the_window_starts_a_fresh_window() -> None:
+    g = ReplayGuard(seq_window=8)
+    assert g.check(rep(10, 100.0), 100.0) is None
+    assert g.check(rep(12, 100.1), 100.1) is None
+    assert g.check(rep(1_000_000, 100.2), 100.2) is None  # frames lost: a fresh window
+    assert g._senders["T2"].bitmap.bit_length() <= 8
+    assert g.check(rep(1_000_000, 100.2), 100.2) == "duplicate"
+    assert g.check(rep(999_995, 100.2), 100.2) is None  # in the new window, once
+    assert g.check(rep(999_995, 100.2), 100.2) == "duplicate"
+    assert g.check(rep(12, 100.1), 100.3) == "replay"  # the old window is gone
+    assert g.stats["resync"] == 0
+    # a jump of exactly the window leaves only the new number in it, as a shift would
+    assert g.check(rep(1_000_008, 100.3), 100.3) is None
+    assert g._senders["T2"].bitmap == 1
+
+
+def test_receiver_without_verifier_survives_huge_sequence_jumps() -> None:
+    """The probe's datagram: 30 frames of one sender, each about 2**31 numbers ahead."""
+    from antikol.onboard.receiver import SecureReceiver
+
+    rx = SecureReceiver(own_id="T1", verifier=None)
+    now = 1_700_000_000.0
+    datagram = b"".join(
+        encode_report(rep(0, now + i * 1e-3, vid="X"), seq=i * (2**31 - 1) % 2**32)
+        for i in range(30)
+    )
+    tracemalloc.start()
+    try:
+        accepted = rx.receive(datagram, now=now)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(accepted) == 30
+    assert rx.guard._senders["X"].bitmap.bit_length() <= rx.guard.seq_window
+    assert peak < 4 * 1024 * 1024

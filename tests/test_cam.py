@@ -336,3 +336,34 @@ def test_missing_pycrate_names_the_extra():
     lines = done.stdout.strip().splitlines()
     assert len(lines) == 2
     assert all("antikol[cits]" in line for line in lines)
+
+
+@needs_pycrate
+@pytest.mark.parametrize(
+    ("t_reference", "epoch_unix_s"),
+    [
+        (1e306, 0.0),
+        (-1e306, 0.0),
+        (1.7e308, 0.0),
+        (0.0, 1e306),
+        (1e308, 1e308),
+        (10.0, 0.0),  # relative times without their epoch: before 2004
+        (T_2025 + 1e9, T_2025 * 100),  # beyond TimestampIts
+    ],
+)
+def test_reference_time_outside_timestamp_its_is_refused(t_reference, epoch_unix_s):
+    """Found by a probe: a finite but huge t_reference or epoch_unix_s made the reference
+    infinite in ms, and round() of it raised OverflowError."""
+    data = encode_cam(_report(), station_id=1)
+    with pytest.raises(InvalidArgumentError, match="t_reference") as info:
+        decode_cam(data, t_reference=t_reference, epoch_unix_s=epoch_unix_s)
+    assert "TimestampIts" in str(info.value) and info.value.name == "t_reference"
+
+
+@needs_pycrate
+def test_reference_times_at_the_ends_of_timestamp_its_decode():
+    first = _report(t=float(ITS_EPOCH_UNIX_S - ITS_LEAP_SECONDS))  # TimestampIts 0
+    data = encode_cam(first, station_id=1)
+    for skew in (-32.0, 0.0, 32.0):
+        back = decode_cam(data, t_reference=first.t + skew)
+        assert back.t == pytest.approx(first.t, abs=1e-3)

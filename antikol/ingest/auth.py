@@ -325,7 +325,8 @@ def load_key_file(path: str | os.PathLike[str]) -> KeySet:
     InputFileError
         The file is missing or unreadable.
     AuthConfigError
-        The file is not valid TOML or a field is missing or invalid (named in the message).
+        The file is not valid TOML or a field is missing or invalid (the message names the
+        file and the field); key ids are ASCII digits of 0..65535, each given once.
     """
     file = Path(path)
     try:
@@ -336,6 +337,23 @@ def load_key_file(path: str | os.PathLike[str]) -> KeySet:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise AuthConfigError(str(file), f"not valid TOML: {exc}") from None
+    except ValueError:  # int()'s refusal of more than 4300 digits, which tomllib lets out
+        raise AuthConfigError(
+            str(file), "not valid TOML: an integer with too many digits"
+        ) from None
+    except RecursionError:  # tomllib's parser recurses once per nested array or table
+        raise AuthConfigError(str(file), "not valid TOML: values nested too deeply") from None
+    try:
+        return _key_set(file, data)
+    except AuthConfigError as exc:
+        if exc.field.startswith(f"{file}: "):
+            raise
+        # the signer and verifier classes check the keys but know no file
+        raise AuthConfigError(f"{file}: {exc.field}", exc.reason) from None
+
+
+def _key_set(file: Path, data: dict[str, Any]) -> KeySet:
+    """The key set a parsed key file describes (``file`` only names it in errors)."""
     scheme = data.get("scheme")
     if scheme == "hmac-sha256":
         keys_raw = data.get("keys")
@@ -343,9 +361,17 @@ def load_key_file(path: str | os.PathLike[str]) -> KeySet:
             raise AuthConfigError(f"{file}: keys", "missing or empty table of fleet keys")
         keys: dict[int, bytes] = {}
         for name, value in keys_raw.items():
-            if not name.isdigit() or not 0 <= int(name) <= 0xFFFF:
-                raise AuthConfigError(f"{file}: keys.{name}", "key ids are integers 0..65535")
-            keys[int(name)] = _hex(f"{file}: keys.{name}", value)
+            field = f"{file}: keys.{name if len(name) <= 20 else name[:17] + '...'}"
+            # str.isdigit() also takes '²' and other scripts' digits, which int() refuses
+            # or reads as ASCII ones; past its leading zeros an id of more than 5 digits is
+            # beyond the frame's uint16 (and int() refuses more than 4300)
+            digits = name.lstrip("0") or "0"
+            if not (name.isascii() and name.isdigit()) or len(digits) > 5 or int(digits) > 0xFFFF:
+                raise AuthConfigError(field, "key ids are integers 0..65535")
+            key_id = int(digits)
+            if key_id in keys:
+                raise AuthConfigError(field, f"key id {key_id} is given twice")
+            keys[key_id] = _hex(field, value)
         send = data.get("send_key", min(keys))
         if isinstance(send, bool) or not isinstance(send, int) or send not in keys:
             raise AuthConfigError(f"{file}: send_key", f"{send!r} is not a loaded key id")

@@ -70,6 +70,8 @@ The default ``epoch_unix_s = 0`` is for reports whose ``t`` is Unix time. A repo
 2004 cannot be encoded. Decoding needs a time near the message's generation to undo the
 wrap, ``t_reference`` (on the same scale as ``t``, usually the reception time): the decoded
 ``t`` is the one nearest to it, within 32.768 s, whose timestamp has the received 16 bits.
+A reference more than that outside ``TimestampIts`` (before 2004 on the given epoch, as
+for the relative times of a forgotten ``epoch_unix_s``) is refused.
 
 Errors
 ------
@@ -384,7 +386,8 @@ def decode_cam(
         the detail names the field.
     InvalidArgumentError
         ``t_reference`` or ``epoch_unix_s`` is not a finite number, ``leap_seconds`` not an
-        int in ``-100 .. 100``.
+        int in ``-100 .. 100``, or ``t_reference`` on that epoch is more than half a wrap
+        (32.768 s) outside ``TimestampIts`` (before 2004 or beyond its 42 bits).
     trackmap.errors.MissingDependencyError
         pycrate is not installed (``pip install 'antikol[cits]'``).
     """
@@ -393,6 +396,16 @@ def decode_cam(
     if reference is None:
         raise InvalidArgumentError("t_reference", t_reference, "not a finite number")
     reference_ms = _timestamp_its_ms(reference, epoch, leap)
+    # no TimestampIts lies within half a wrap of a reference outside this range, and a
+    # huge one (1e306 s: infinite in ms) has no wrap count round() can give
+    if not -_WRAP_MS / 2 <= reference_ms <= _MAX_TIMESTAMP_ITS + _WRAP_MS / 2:
+        hint = " (before 2004 on this epoch? pass epoch_unix_s)" if reference_ms < 0 else ""
+        raise InvalidArgumentError(
+            "t_reference",
+            t_reference,
+            f"TimestampIts {reference_ms:.0f} ms with epoch_unix_s={epoch!r} is outside"
+            f" 0..{_MAX_TIMESTAMP_ITS}{hint}",
+        )
     value = _parse(bytes(data))
     try:
         header = value["header"]

@@ -10,10 +10,12 @@ receiver with duplicates. :class:`ReplayGuard` checks every authenticated report
 * the sender's sequence numbers, as IPsec does (RFC 4303, section 3.4.3): it keeps the
   highest number seen and a bitmap of the ``seq_window`` numbers below it. A number seen
   before is a ``"duplicate"``; a newer number with an older time than the sender's newest
-  report is a ``"replay"``; a number below the window is a ``"replay"`` too, unless the
-  report is also newer than every report of that sender so far (the sender restarted and
-  its numbers began again), which restarts the window (counted in ``stats["resync"]``);
-  a number in the restarted window but dated before the restart is a ``"replay"``.
+  report is a ``"replay"``; a newer number ``seq_window`` or more ahead (frames lost, e.g.
+  in a tunnel) leaves only itself in the window, however far ahead it is. A number below
+  the window is a ``"replay"`` too, unless the report is also newer than every report of
+  that sender so far (the sender restarted and its numbers began again), which restarts
+  the window (counted in ``stats["resync"]``); a number in the restarted window but dated
+  before the restart is a ``"replay"``.
   Numbers wrap at 2**32 (serial number arithmetic, RFC 1982).
 
 A report that is rejected leaves the state unchanged, so a forged report can never move a
@@ -151,7 +153,12 @@ class ReplayGuard:
         if ahead < _HALF:  # newer than every number so far
             if t < state.newest_t:  # a genuine sender's times never go back with its numbers
                 return "replay"
-            state.bitmap = ((state.bitmap << ahead) | 1) & ((1 << self.seq_window) - 1)
+            # no number seen stays in the window past a jump of its size, and shifting by
+            # ``ahead`` (up to 2**31, as the frame says) would build an integer that long
+            if ahead < self.seq_window:
+                state.bitmap = ((state.bitmap << ahead) | 1) & ((1 << self.seq_window) - 1)
+            else:
+                state.bitmap = 1
             state.highest = seq
         else:
             behind = _MOD - ahead
