@@ -363,3 +363,34 @@ def test_any_topic_gives_an_id_or_none(topic):
 
     got = topic_vehicle_id(topic)
     assert got is None or (isinstance(got, str) and got)
+
+
+def test_gtfs_realtime_timestamp_0_is_no_time(tmp_path):
+    # 0 is protobuf's default: a producer that leaves the field unset may still write it
+    here = {"id": "A", "lat": 50.06, "lon": 19.94, "speed": 1.0, "bearing": 90.0}
+    with_header = write_feed_message(tmp_path / "a.pb", [{**here, "timestamp": 0}], timestamp=5)
+    assert [r.t for r in read_gtfs_realtime(with_header).reports] == [5.0]
+    alone = write_feed_message(tmp_path / "b.pb", [{**here, "timestamp": 0}])
+    log = read_gtfs_realtime(alone)
+    assert not log.reports
+    assert [(p.line, "no timestamp" in p.reason) for p in log.problems] == [(1, True)]
+    too_late = write_feed_message(tmp_path / "c.pb", [{**here, "timestamp": 2**64 - 1}])
+    log = read_gtfs_realtime(too_late)
+    assert not log.reports
+    assert "vehicle.timestamp=18446744073709551615" in log.problems[0].reason
+
+
+def test_an_empty_gtfs_realtime_file_is_a_problem(simulated, tmp_path):
+    empty = tmp_path / "empty.pb"
+    empty.write_bytes(b"")
+    log = read_gtfs_realtime(empty)
+    assert [(p.line, p.source) for p in log.problems] == [(0, str(empty))]
+    assert "empty" in log.problems[0].reason
+    with pytest.raises(ReplayError, match=r"empty\.pb.*empty"):
+        read_gtfs_realtime(empty, strict=True)
+    feed = tmp_path / "rt"
+    feed.mkdir()
+    write_feed_message(feed / "0.pb", [gtfs_vehicle(simulated[0])])
+    (feed / "1.pb").write_bytes(b"")
+    log = read_gtfs_realtime(feed)
+    assert len(log.reports) == 1 and [p.line for p in log.problems] == [0]

@@ -16,6 +16,9 @@ record at a time and
 * never makes up a course: a moving vehicle's first record without one (nothing to derive
   it from) is no report, noted, but the next record derives its speed and course from it;
 * skips exact repeats of a vehicle's last record time (feeds repeat snapshots), counted;
+* checks each record's own values first (:data:`FEED_TIME_RANGE` for its time): a bad
+  record is rejected for what is wrong with it and is never the position, time or
+  odometer its vehicle's next record derives a speed or a course from;
 * converts the speed field from the feed's unit (``speed_unit``: the specifications say
   m/s, some GTFS-realtime producers send km/h; :data:`SPEED_UNITS`);
 * turns every invalid value into a :class:`~antikol.ingest.replaylog.RowProblem` naming
@@ -30,17 +33,25 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import NamedTuple
+from typing import Final, NamedTuple
 
 from pyproj import Geod
 
 from antikol.errors import InvalidArgumentError, InvalidReportError, ReplayError
 from antikol.ingest.nmea_spec import KMH_PER_MPS, KNOT_MPS
 from antikol.ingest.replaylog import ReplayLog, RowProblem
-from antikol.report import ESTIMATED_FIX_QUALITY, VehicleReport
+from antikol.numeric import why_not_finite
+from antikol.report import ESTIMATED_FIX_QUALITY, MAX_SPEED_MPS, VehicleReport
 from antikol.thresholds import COURSE_MIN_SPEED_MPS
 
-__all__ = ["SPEED_UNITS", "FeedCollector", "FeedRecord", "speed_unit_factor"]
+__all__ = [
+    "FEED_TIME_RANGE",
+    "SPEED_UNITS",
+    "FeedCollector",
+    "FeedRecord",
+    "speed_unit_factor",
+    "time_problem",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -66,6 +77,25 @@ def speed_unit_factor(unit: str) -> float:
     if factor is None:
         raise InvalidArgumentError("speed_unit", unit, f"one of {', '.join(SPEED_UNITS)}")
     return factor
+
+
+#: The times a feed record may have, POSIX s: from 1970 to the end of the year 9999. A
+#: time outside is no time a feed means (a field in another unit, a default, garbage), and
+#: beyond 9999 no date can show it.
+FEED_TIME_RANGE: Final = (0.0, 253_402_300_800.0)
+
+
+def time_problem(t: float) -> str | None:
+    """Why ``t`` (POSIX s) is no time of a feed record, or None when it is one.
+
+    >>> time_problem(1702540801.0) is None, time_problem(1e30)
+    (True, 'not a time in the years 1970 to 9999')
+    """
+    if not math.isfinite(t):
+        return "must be finite (NaN or infinite)"
+    if not FEED_TIME_RANGE[0] <= t < FEED_TIME_RANGE[1]:
+        return "not a time in the years 1970 to 9999"
+    return None
 
 
 #: A course is derived from two fixes at least this far apart, m: from one second's run
@@ -167,6 +197,35 @@ def _derived_speed(trail: tuple[_Fix, ...], t: float, lat: float, lon: float) ->
     return float(dist) / (t - first.t)
 
 
+def _unusable(rec: FeedRecord, speed: float | None) -> str | None:
+    """What makes a record unusable on its own (None: nothing), ``speed`` in m/s.
+
+    Checked before the record is compared with or derived from its vehicle's last one,
+    and before it becomes that last one: a time of NaN or a latitude of 1000 kept as the
+    reference would give the next record a made-up speed, or reject it for this one's
+    fault.
+    """
+    why = time_problem(rec.t)
+    if why is not None:
+        return str(InvalidReportError("t", rec.t, why))
+    values = (("lat", rec.lat, 90.0), ("lon", rec.lon, 180.0))
+    for name, value, limit in values:
+        if value is not None and not abs(value) <= limit:  # (False for NaN as well)
+            why = why_not_finite(value) or f"|{name}| > {limit:g} degrees"
+            return str(InvalidReportError(name, value, why))
+    if rec.odometer_m is not None and not rec.odometer_m >= 0.0:
+        why = why_not_finite(rec.odometer_m) or "negative"
+        return str(InvalidReportError("odometer_m", rec.odometer_m, why))
+    if speed is not None and not 0.0 <= speed <= MAX_SPEED_MPS:
+        why = why_not_finite(speed) or (
+            "negative speed" if speed < 0.0 else f"above {MAX_SPEED_MPS:g} m/s"
+        )
+        return str(InvalidReportError("speed_mps", speed, why))
+    if rec.course_deg is not None and not math.isfinite(rec.course_deg):
+        return str(InvalidReportError("course_deg", rec.course_deg, why_not_finite(rec.course_deg)))
+    return None
+
+
 @dataclass
 class FeedCollector:
     """Collects feed records into a :class:`~antikol.ingest.replaylog.ReplayLog`.
@@ -203,6 +262,13 @@ class FeedCollector:
 
     def add(self, rec: FeedRecord) -> None:
         """Turn one record into a report, or note why it cannot be one."""
+        speed, course = rec.speed_mps, rec.course_deg
+        if speed is not None:
+            speed *= self.speed_factor
+        bad = _unusable(rec, speed)
+        if bad is not None:
+            self.problem(rec.record, rec.source, bad)
+            return
         last = self._last.get(rec.vehicle_id)
         if last is not None and rec.t == last.t:
             self.ignore("repeated record time of a vehicle")
@@ -234,9 +300,6 @@ class FeedCollector:
         else:
             self.problem(rec.record, rec.source, "no position (lat/lon) and none known before")
             return
-        speed, course = rec.speed_mps, rec.course_deg
-        if speed is not None:
-            speed *= self.speed_factor
         if (speed is None or course is None) and last is not None:
             if speed is None:
                 if odometer is not None and last.odometer is not None and not went_back:

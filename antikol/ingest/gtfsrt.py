@@ -6,7 +6,8 @@ a directory of such files (or a single one). Each ``FeedEntity`` with a ``vehicl
 
 ==========================  ========================================================
 ``vehicle.vehicle.id``      vehicle id (else ``label``, else the entity id)
-``vehicle.timestamp``       time, POSIX seconds (else the header's timestamp)
+``vehicle.timestamp``       time, POSIX seconds (else the header's timestamp; 0, the
+                            protobuf default, is no time)
 ``position.latitude``,      WGS84 degrees
 ``position.longitude``
 ``position.speed``          speed, m/s (missing: derived from the previous position)
@@ -15,10 +16,10 @@ a directory of such files (or a single one). Each ``FeedEntity`` with a ``vehicl
 ==========================  ========================================================
 
 Files are read in name order; repeated snapshots of an unchanged vehicle (same timestamp)
-are counted as ignored. A file that is not a ``FeedMessage`` and every unusable entity are
-reported with the file and the entity number (:class:`~antikol.ingest.replaylog.RowProblem`),
-never fatal. Decoding uses Google's ``gtfs-realtime-bindings`` (``pip install
-'antikol[feeds]'``).
+are counted as ignored. A file that is not a ``FeedMessage`` (an empty file is none either:
+a fetch that failed) and every unusable entity are reported with the file and the entity
+number (:class:`~antikol.ingest.replaylog.RowProblem`), never fatal. Decoding uses Google's
+``gtfs-realtime-bindings`` (``pip install 'antikol[feeds]'``).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from typing import Any, Final
 
 from antikol.errors import InputFileError
 from antikol.ingest.compressed import logical_suffix, read_input
-from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor
+from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor, time_problem
 from antikol.ingest.replaylog import ReplayLog
 
 __all__ = ["GTFS_RT_SUFFIXES", "feed_message", "read_gtfs_realtime", "write_feed_message"]
@@ -112,12 +113,18 @@ def _entity_record(ent: Any, header_t: int | None, number: int, source: str) -> 
     vid = vp.vehicle.id or vp.vehicle.label or ent.id
     if not vid:
         raise ValueError("no vehicle id (vehicle.vehicle.id, label or entity id)")
-    if vp.HasField("timestamp"):
-        t = float(vp.timestamp)
+    # 0 is the protobuf default, which a producer may write for a time it does not know:
+    # missing, as the header's 0 is
+    if vp.timestamp:
+        name, stamp = "vehicle.timestamp", int(vp.timestamp)
     elif header_t:
-        t = float(header_t)
+        name, stamp = "header.timestamp", header_t
     else:
         raise ValueError("no timestamp (vehicle.timestamp or header.timestamp)")
+    t = float(stamp)
+    why = time_problem(t)
+    if why is not None:
+        raise ValueError(f"{name}={stamp}: {why}")
     if not vp.HasField("position"):
         raise ValueError("no position (vehicle.position)")
     pos = vp.position
@@ -190,6 +197,9 @@ def read_gtfs_realtime(
             decoded = read_input(f, what="GTFS-realtime file")
             if decoded.problem is not None:  # a cut snapshot is no snapshot
                 out.problem(0, str(f), decoded.problem)
+                continue
+            if not decoded.data:  # (would decode as a FeedMessage without a header)
+                out.problem(0, str(f), "empty file: not a GTFS-realtime FeedMessage")
                 continue
             msg = feed_message(decoded.data)
         except OSError as exc:

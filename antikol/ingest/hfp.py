@@ -7,9 +7,11 @@ vehicle position. The fields used here (HFP v2):
 =========  ===================================================================
 ``oper``   operator id; with ``veh`` the vehicle id ``"<oper>/<veh>"`` where the
            vehicle's owner is not given (below)
-``veh``    vehicle number within the operator
-``tst``    UTC time, ISO 8601 (``2023-12-14T08:00:01.123Z``); ``tsi`` (Unix
-           seconds) when ``tst`` is missing
+``veh``    vehicle number within the operator (a whole number or a string: ``412``,
+           ``412.0`` and ``"0412"`` are the same vehicle)
+``tst``    UTC time, an ISO 8601 calendar date and time of day
+           (``2023-12-14T08:00:01.123Z``); ``tsi`` (Unix seconds) when ``tst`` is
+           missing; either in the years 1970 to 9999
 ``lat``,   WGS84 degrees (null when unknown)
 ``long``
 ``spd``    speed, m/s (null: derived from the previous record)
@@ -30,14 +32,20 @@ wherever the record gives it: the MQTT topic's operator and vehicle number
 ``unique_vehicle_id`` (``"40/412"``), else its ``owner_operator_id`` with
 ``vehicle_number``, else ``oper`` with ``veh``.
 
+A number is a JSON number or a string of a plain ASCII decimal number (``"8.2"``,
+``"-1e3"``): ``"1_0"``, digits of other scripts, NaN and the infinities are refused, the
+field named, as are values of other JSON types (a list, an object, ``true``).
+
 Accepted forms, one message per record:
 
-* **JSON lines** — one message per line; a line may also be an MQTT dump line,
-  ``<topic> <payload>`` (``mosquitto_sub -v``);
-* a **JSON array** of messages;
+* **JSON lines** — one message per line (lines end at LF, CR LF or CR alone, not at the
+  other line breaks of Unicode, which a JSON string may hold); a line may also be an MQTT
+  dump line, ``<topic> <payload>`` (``mosquitto_sub -v``);
+* a **JSON array** of messages (an element that cannot be read is a problem of its
+  record; the elements after it are read on where the array's syntax allows);
 * the **CSV archive** form — a header with the same field names (``long`` or ``lon``),
   optionally an event-type column (``event_type`` or ``eventType``; rows of other events
-  are ignored).
+  are ignored); a record is one line (a quote left open is a problem of its line alone).
 
 Messages of other event types (``DUE``, ``ARR``, ``DEP``, ``DOO``...) are counted as
 ignored. Bad records are reported with their line (or record) number and the field
@@ -57,7 +65,9 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
+import re
 from collections.abc import Iterable, Iterator, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
@@ -65,7 +75,12 @@ from typing import Any, Final, NamedTuple
 
 from antikol.errors import ReplayError
 from antikol.ingest.compressed import logical_suffix, read_input
-from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor
+from antikol.ingest.feed_common import (
+    FeedCollector,
+    FeedRecord,
+    speed_unit_factor,
+    time_problem,
+)
 from antikol.ingest.replaylog import ReplayLog
 
 __all__ = [
@@ -82,10 +97,39 @@ __all__ = [
 HFP_EVENT: Final = "VP"
 _NO_FIX_SOURCES: Final = frozenset({"ODO", "DR", "MAN", "N/A", "NA"})
 _ESTIMATE_SOURCES: Final = frozenset({"ODO", "DR"})
+#: A number in a string: ASCII decimal with an optional sign, point and exponent (float()
+#: also reads "1_0", "١٢", "nan" and "infinity", none of which a feed means as a number).
+_NUMBER: Final = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+#: What float() reads as NaN or an infinity.
+_NON_FINITE: Final = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
+#: The start of an ISO 8601 calendar date and time of day (fromisoformat also reads a date
+#: alone, as midnight, and week and ordinal dates).
+_DATE_AND_TIME: Final = re.compile(r"[0-9]{4}-?[0-9]{2}-?[0-9]{2}[T ][0-9]{2}")
+#: A vehicle or operator number with leading zeros, or written as a float: the number.
+_WHOLE: Final = re.compile(r"0*([0-9]{1,19})(?:\.0*)?")
+#: A CSV line whose quotes are in place: a field with a quote is quoted whole, its quotes
+#: doubled (csv also reads a quote inside an unquoted field, and a field left open on into
+#: the next lines).
+_CSV_FIELD = r'(?:"[^"]*(?:""[^"]*)*"|[^",]*)'
+_CSV_LINE: Final = re.compile(f"{_CSV_FIELD}(?:,{_CSV_FIELD})*")
+#: The tokens that tell where a JSON value ends: strings, brackets, commas.
+_JSON_TOKEN: Final = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[][{},]')
 
 
 class HfpRecordError(ValueError):
     """An HFP record cannot be used (the message names the field)."""
+
+
+def _shown(value: Any) -> str:
+    """``value`` in a message: a list or an object by its type, a long value cut short."""
+    if isinstance(value, Mapping):
+        return "{...}"
+    if isinstance(value, list | tuple):
+        return "[...]"
+    if isinstance(value, int) and value.bit_length() > 10_000:  # (repr refuses 4300 digits)
+        return f"<an integer of {value.bit_length()} bits>"
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:30]}... ({len(text)} characters)"
 
 
 def _number(fields: Mapping[str, Any], name: str, *, required: bool) -> float | None:
@@ -94,55 +138,97 @@ def _number(fields: Mapping[str, Any], name: str, *, required: bool) -> float | 
         if required:
             raise HfpRecordError(f"{name} is missing")
         return None
-    if isinstance(value, bool):
-        raise HfpRecordError(f"{name}={value!r} is not a number")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise HfpRecordError(f"{name}={value!r} is not a number") from None
+    if isinstance(value, str):
+        text = value.strip()
+        if _NUMBER.fullmatch(text) is None:
+            kind = "a finite number" if _NON_FINITE.fullmatch(text) else "a number"
+            raise HfpRecordError(f"{name}={_shown(value)} is not {kind}")
+        number = float(text)  # ("1e400" is inf)
+    elif isinstance(value, int | float) and not isinstance(value, bool):
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond a double (10**400)
+            number = math.inf
+    else:
+        raise HfpRecordError(f"{name}={_shown(value)} is not a number")
+    if not math.isfinite(number):
+        raise HfpRecordError(f"{name}={_shown(value)} is not a finite number")
+    return number
 
 
 def _time(fields: Mapping[str, Any]) -> float:
+    """The record's time, checked here, before the records are sorted by it."""
     tst = fields.get("tst")
-    if isinstance(tst, str) and tst.strip():
+    if tst is None or (isinstance(tst, str) and not tst.strip()):
+        name, given = "tsi", fields.get("tsi")
+        t = _number(fields, "tsi", required=False)
+        if t is None:
+            raise HfpRecordError("tst and tsi are missing")
+    elif not isinstance(tst, str):
+        raise HfpRecordError(f"tst={_shown(tst)} is not a time (an ISO 8601 string)")
+    else:
         try:
+            if _DATE_AND_TIME.match(tst.strip()) is None:
+                raise ValueError(tst)
             when = datetime.fromisoformat(tst.strip())
         except ValueError:
-            raise HfpRecordError(f"tst={tst!r} is not an ISO 8601 time") from None
+            raise HfpRecordError(
+                f"tst={_shown(tst)} is not an ISO 8601 date and time of day"
+            ) from None
         if when.tzinfo is None:
             when = when.replace(tzinfo=UTC)  # HFP times are UTC
-        return when.timestamp()
-    tsi = _number(fields, "tsi", required=False)
-    if tsi is None:
-        raise HfpRecordError("tst and tsi are missing")
-    return tsi
+        name, given, t = "tst", tst, when.timestamp()
+    why = time_problem(t)
+    if why is not None:
+        raise HfpRecordError(f"{name}={_shown(given)}: {why}")
+    return t
 
 
-def _plain(value: Any) -> str:
-    text = str(value).strip()
-    # "0412" -> "412"; only ASCII digits (int() also reads "²" and fails on 5000 digits)
-    return str(int(text)) if text.isascii() and text.isdigit() and len(text) < 20 else text
+def _plain(text: str) -> str:
+    # "0412" and "412.0" -> "412"; only ASCII digits (int() also reads "²")
+    text = text.strip()
+    whole = _WHOLE.fullmatch(text)
+    return whole.group(1) if whole else text
 
 
-def _given(value: Any) -> bool:
-    return value is not None and str(value).strip() != ""
+def _id_text(fields: Mapping[str, Any], name: str) -> str | None:
+    """Identity field ``name`` as text, None when not given: a string, or a whole number
+    (412.0 is vehicle 412, not another one); anything else is refused, not made an id."""
+    value = fields.get(name)
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return _plain(value) or None
+    if isinstance(value, float) and value.is_integer():  # (False for NaN and infinities)
+        value = int(value)
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 10**19:
+        return str(value)
+    raise HfpRecordError(f"{name}={_shown(value)} is not a whole number or a string")
 
 
-def _owned_id(operator: Any, vehicle: Any) -> str:
-    return f"{_plain(operator)}/{_plain(vehicle)}" if _given(operator) else _plain(vehicle)
+def _first_id(fields: Mapping[str, Any], *names: str) -> str | None:
+    for name in names:
+        text = _id_text(fields, name)
+        if text is not None:
+            return text
+    return None
+
+
+def _owned_id(operator: str | None, vehicle: str) -> str:
+    return f"{operator}/{vehicle}" if operator else vehicle
 
 
 def _vehicle_id(fields: Mapping[str, Any]) -> str:
-    unique = fields.get("unique_vehicle_id", fields.get("uniquevehicleid"))
-    if _given(unique):
-        return "/".join(_plain(part) for part in str(unique).split("/"))
-    number = fields.get("vehicle_number", fields.get("vehiclenumber"))
-    if _given(number):
-        return _owned_id(fields.get("owner_operator_id", fields.get("owneroperatorid")), number)
-    veh = fields.get("veh")
-    if not _given(veh):
+    unique = _first_id(fields, "unique_vehicle_id", "uniquevehicleid")
+    if unique is not None:
+        return "/".join(_plain(part) for part in unique.split("/"))
+    number = _first_id(fields, "vehicle_number", "vehiclenumber")
+    if number is not None:
+        return _owned_id(_first_id(fields, "owner_operator_id", "owneroperatorid"), number)
+    veh = _id_text(fields, "veh")
+    if veh is None:
         raise HfpRecordError("veh is missing")
-    return _owned_id(fields.get("oper"), veh)
+    return _owned_id(_id_text(fields, "oper"), veh)
 
 
 def topic_vehicle_id(topic: str) -> str | None:
@@ -171,8 +257,8 @@ def topic_vehicle_id(topic: str) -> str | None:
     first = {"v1": at + 5, "v2": at + 6}.get(version)  # the operator's place
     if first is None or len(parts) <= first + 1:
         return None
-    operator, vehicle = parts[first], parts[first + 1]
-    if not (_given(operator) and _given(vehicle)) or "+" in (operator, vehicle):
+    operator, vehicle = _plain(parts[first]), _plain(parts[first + 1])
+    if not (operator and vehicle) or "+" in (operator, vehicle):
         return None
     return _owned_id(operator, vehicle)
 
@@ -188,10 +274,14 @@ def hfp_fields(
     Raises
     ------
     HfpRecordError
-        A required field is missing or not a number, or the time is unreadable.
+        A required field is missing, a field is not a finite number (or the vehicle's
+        number not a whole number or a string), or the time is unreadable or outside the
+        years 1970 to 9999.
     """
     loc = fields.get("loc")
-    source_kind = loc.strip().upper() if isinstance(loc, str) else "GPS"
+    if loc is not None and not isinstance(loc, str):
+        raise HfpRecordError(f"loc={_shown(loc)} is not a location source (GPS, ODO, DR...)")
+    source_kind = loc.strip().upper() if loc else "GPS"
     return FeedRecord(
         record=record,
         source=source,
@@ -253,18 +343,87 @@ class _Message(NamedTuple):
     vehicle_id: str | None = None  # from the MQTT topic, if any
 
 
+def _lines(text: str) -> Iterator[tuple[int, str]]:
+    """The numbered lines of ``text``, ended by LF, CR LF or CR: not by the other line
+    breaks of ``str.splitlines`` (U+2028, U+0085...), which a JSON string or a CSV field
+    may hold as they are (a JSON text has a CR or an LF as white space only)."""
+    for number, line in enumerate(io.StringIO(text, newline=None), start=1):
+        yield number, line.rstrip("\n")
+
+
+def _unreadable(exc: ValueError | RecursionError) -> HfpRecordError:
+    """The problem of a JSON text that ``json`` cannot read."""
+    if isinstance(exc, json.JSONDecodeError):
+        return HfpRecordError(f"unreadable JSON: {exc.msg} (column {exc.colno})")
+    if isinstance(exc, RecursionError):
+        return HfpRecordError("unreadable JSON: nested too deeply")
+    # an integer of more digits than Python converts (sys.get_int_max_str_digits())
+    return HfpRecordError(f"unreadable JSON: {str(exc).split(';')[0]}")
+
+
+def _after_space(text: str, at: int) -> int:
+    """The first index from ``at`` on that is no JSON white space."""
+    while at < len(text) and text[at] in " \t\n\r":
+        at += 1
+    return at
+
+
+def _value_end(text: str, at: int) -> int | None:
+    """Where the JSON value starting at ``at`` ends, found without decoding it (a value
+    nested too deeply for ``json``); None when the text ends first."""
+    depth = 0
+    for token in _JSON_TOKEN.finditer(text, at):
+        char = token.group()[0]
+        if char in "[{":
+            depth += 1
+        elif char in "]}":
+            depth -= 1
+            if depth <= 0:  # the value's own end, or the end of the array around it
+                return token.end() if depth == 0 else token.start()
+        elif char == "," and depth == 0:
+            return token.start()
+    return None
+
+
+def _array_messages(text: str) -> Iterator[_Message]:
+    """The messages of a JSON array, decoded one element after the other: an element
+    ``json`` cannot read is a problem of its record, not of the whole file."""
+    decoder = json.JSONDecoder()
+    at = _after_space(text, text.index("[") + 1)
+    if text.startswith("]", at):
+        return
+    number = 1
+    while True:
+        try:
+            message, end = decoder.raw_decode(text, at)
+        except json.JSONDecodeError as exc:  # the array's syntax is lost: no element after
+            where = f"line {exc.lineno}, column {exc.colno}"
+            yield _Message(number, HfpRecordError(f"unreadable JSON array: {exc.msg} ({where})"))
+            return
+        except (ValueError, RecursionError) as exc:
+            yield _Message(number, _unreadable(exc))
+            skipped = _value_end(text, at)
+            if skipped is None:
+                return
+            end = skipped
+        else:
+            yield _Message(number, message)
+        at = _after_space(text, end)
+        if text.startswith("]", at):
+            return
+        if not text.startswith(",", at):
+            yield _Message(number, HfpRecordError("unreadable JSON array: no ',' or ']' after it"))
+            return
+        at = _after_space(text, at + 1)
+        number += 1
+
+
 def _json_messages(text: str) -> Iterator[_Message]:
     """The messages of a JSON HFP file."""
     if text.lstrip().startswith("["):
-        try:
-            doc = json.loads(text)
-        except json.JSONDecodeError as exc:
-            yield _Message(exc.lineno, HfpRecordError(f"unreadable JSON array: {exc.msg}"))
-            return
-        for number, message in enumerate(doc, start=1):
-            yield _Message(number, message)
+        yield from _array_messages(text)
         return
-    for number, line in enumerate(text.splitlines(), start=1):
+    for number, line in _lines(text):
         body = line.strip()
         if not body:
             continue
@@ -276,11 +435,11 @@ def _json_messages(text: str) -> Iterator[_Message]:
             body = body.strip()
             vehicle_id = topic_vehicle_id(topic)
         try:
-            yield _Message(number, json.loads(body), vehicle_id)
-        except json.JSONDecodeError as exc:
-            yield _Message(
-                number, HfpRecordError(f"unreadable JSON: {exc.msg} (column {exc.colno})")
-            )
+            message = json.loads(body)
+        except (ValueError, RecursionError) as exc:  # (JSONDecodeError is a ValueError)
+            yield _Message(number, _unreadable(exc))
+        else:
+            yield _Message(number, message, vehicle_id)
 
 
 #: Header names of a vehicle's identity in the CSV archive forms (lower case).
@@ -296,12 +455,29 @@ def looks_like_hfp_csv(header: Iterable[str]) -> bool:
     return bool(names & _VEHICLE_COLUMNS) and "lat" in names and bool(names & {"tst", "tsi"})
 
 
-def _csv_records(fh: Any, path: Path) -> Iterator[_Message]:
-    reader = csv.reader(fh)
-    try:
-        header = [h.strip().lstrip("\ufeff") for h in next(reader)]
-    except StopIteration:
-        raise ReplayError(f"{path}: empty file (expected an HFP header line)") from None
+def _csv_rows(text: str) -> Iterator[tuple[int, list[str] | HfpRecordError]]:
+    """The fields of each line: an HFP record never spans lines, so a quote left open is
+    a problem of its own line, not a field running on through the rest of the file."""
+    for number, line in _lines(text):
+        if '"' not in line:  # (what csv makes of a line without quotes, only faster)
+            yield number, line.split(",")
+        elif _CSV_LINE.fullmatch(line) is None:
+            yield number, HfpRecordError("unreadable row: a quote out of place or left open")
+        else:
+            try:
+                yield number, next(csv.reader((line,), strict=True))
+            except csv.Error as exc:  # (a field beyond csv.field_size_limit())
+                yield number, HfpRecordError(f"unreadable row: {exc}")
+
+
+def _csv_records(text: str, path: Path) -> Iterator[_Message]:
+    rows = _csv_rows(text)
+    first = next(rows, None)
+    if first is None:
+        raise ReplayError(f"{path}: empty file (expected an HFP header line)")
+    if isinstance(first[1], HfpRecordError):
+        raise ReplayError(f"{path}:1: unreadable HFP CSV header: {first[1]}")
+    header = [h.strip().lstrip("\ufeff") for h in first[1]]
     if not looks_like_hfp_csv(header):
         raise ReplayError(
             f"{path}: not an HFP CSV header (needs veh or vehicle_number, tst or tsi, "
@@ -310,24 +486,20 @@ def _csv_records(fh: Any, path: Path) -> Iterator[_Message]:
         )
     lower = [h.lower() for h in header]
     event_col = next((i for i, h in enumerate(lower) if h in ("event_type", "eventtype")), None)
-    while True:
-        try:
-            row = next(reader)
-        except StopIteration:
-            return
-        except csv.Error as exc:
-            yield _Message(reader.line_num, HfpRecordError(f"unreadable row: {exc}"))
+    for number, row in rows:
+        if isinstance(row, HfpRecordError):
+            yield _Message(number, row)
             continue
-        if not row or all(not c.strip() for c in row):
+        if all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
             yield _Message(
-                reader.line_num, HfpRecordError(f"{len(row)} fields, the header has {len(header)}")
+                number, HfpRecordError(f"{len(row)} fields, the header has {len(header)}")
             )
             continue
         fields = dict(zip(lower, row, strict=True))
         event = row[event_col].strip().upper() if event_col is not None else HFP_EVENT
-        yield _Message(reader.line_num, {event or HFP_EVENT: fields})
+        yield _Message(number, {event or HFP_EVENT: fields})
 
 
 def read_hfp(
@@ -373,7 +545,7 @@ def read_hfp(
     is_csv = logical_suffix(p) == ".csv" or (
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
     )
-    messages = _csv_records(io.StringIO(text, newline=""), p) if is_csv else _json_messages(text)
+    messages = _csv_records(text, p) if is_csv else _json_messages(text)
     out = FeedCollector(str(p), strict=strict, speed_factor=factor)
     if decoded.problem is not None:  # the records before the cut are read all the same
         out.problem(0, str(p), decoded.problem)
