@@ -8,6 +8,7 @@ import csv
 import gzip
 import json
 import lzma
+import tracemalloc
 
 import pytest
 from hypothesis import given, settings
@@ -26,7 +27,8 @@ from antikol.ingest.compressed import (
     stream_problem,
 )
 from antikol.ingest.gtfsrt import write_feed_message
-from antikol.ingest.replaylog import iter_replay_csv, write_replay_csv
+from antikol.ingest.nmea import read_nmea_file
+from antikol.ingest.replaylog import iter_replay_csv, read_nmea_logs, write_replay_csv
 from antikol.sim import GpsModel, Simulator, fleet
 from tests._feeds import EPOCH, gtfs_vehicle
 
@@ -107,6 +109,53 @@ def test_plain_files_are_read_as_they_are(tmp_path_factory, head):
         assert read_input(path) == (head, None, None)
         with open_input(path) as fh:
             assert fh.read() == head and stream_problem(fh) is None
+
+
+@pytest.mark.parametrize("pad", [0, 4, 8, 20_000])  # 20 000: padding across read chunks
+def test_xz_streams_with_stream_padding_are_all_read_as_xz_reads_them(tmp_path, pad):
+    path = tmp_path / "log.csv.xz"
+    first, second = b"vehicle_id,t\n", b"T1,1\n" * 3
+    packed = lzma.compress(first) + b"\0" * pad + lzma.compress(second)
+    path.write_bytes(packed + b"\0" * pad)  # padding may follow the last stream too
+    assert read_input(path) == (first + second, "xz", None)
+    assert read_head(path, 20) == (first + second)[:20]
+    with open_input(path) as fh:
+        assert fh.readlines() == [first, *[b"T1,1\n"] * 3] and stream_problem(fh) is None
+
+
+@pytest.mark.parametrize(
+    "blob",
+    [b"\0" * 3 + lzma.compress(b"T1,2\n"), b"\0" * 5],
+    ids=["before a stream", "at the end"],
+)
+def test_xz_stream_padding_not_a_multiple_of_four_is_damage(tmp_path, blob):
+    # xz -dc stops there too ("Compressed data is corrupt")
+    path = tmp_path / "log.csv.xz"
+    path.write_bytes(lzma.compress(b"T1,1\n") + blob)
+    got = read_input(path)
+    assert got.data == b"T1,1\n" and got.compression == "xz"
+    assert got.problem is not None and "padding" in got.problem and "lost" in got.problem
+
+
+@pytest.mark.parametrize("kind", sorted(_COMPRESS))
+def test_a_compressed_bomb_is_streamed_in_bounded_memory(tmp_path, kind):
+    # 32 MB of one line: bzip2 packs it in under 100 bytes, so one read of the file
+    # must not decompress all it holds at once
+    path = tmp_path / f"t1.nmea{_SUFFIX[kind]}"
+    path.write_bytes(_COMPRESS[kind](b"$GPRMC," + b"x" * (32 << 20)))
+    tracemalloc.start()
+    try:
+        head = read_head(path, 10)
+        head_peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.reset_peak()
+        reports, stats = read_nmea_file(path)
+        file_peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    held = 8 << 20 if kind == "xz" else 0  # xz's decoder holds its dictionary (8 MiB)
+    assert head == b"$GPRMC,xxx" and head_peak < held + (1 << 20)
+    assert reports == [] and stats.skipped == {"too_long": 1} and stats.cut is None
+    assert file_peak < held + (2 << 20)
 
 
 def test_the_format_suffix_is_the_one_before_the_compression():
@@ -212,3 +261,20 @@ def test_a_directory_of_compressed_nmea_logs_names_each_vehicle_by_its_file(simu
     (packed / written[0].name).write_bytes(written[0].read_bytes())
     with pytest.raises(InputFileError, match="two files for vehicle"):
         read_log(packed)
+
+
+def test_a_damaged_compressed_nmea_log_without_a_line_is_damaged_not_ignored(simulation, tmp_path):
+    written = simulation.write_nmea(tmp_path / "logs")
+    d = written[0].parent
+    (d / "notes.txt").write_text("a note, not a log\n")
+    (d / "bad.log.gz").write_bytes(gzip.compress(written[0].read_bytes())[:12])  # 0 lines
+    log = read_nmea_logs(d)
+    assert {r.vehicle_id for r in log.reports} == {"T01", "T02"}
+    assert list(log.ignored) == ["not an NMEA log (no sentence in 1 line(s)): notes.txt"]
+    [cut] = [p for p in log.problems if p.code == "compressed stream cut"]
+    assert cut.source == str(d / "bad.log.gz") and "gzip stream ends early" in cut.reason
+    # alone in its directory it is still named, with why nothing could be read
+    for f in written:
+        f.unlink()
+    with pytest.raises(InputFileError, match=r"bad\.log\.gz.*gzip stream ends early"):
+        read_nmea_logs(d)

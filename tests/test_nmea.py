@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import io
 import logging
 import math
+import re
+import tracemalloc
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -15,6 +18,7 @@ from pynmeagps.nmeahelpers import calc_checksum
 
 from antikol.errors import InputFileError, InvalidReportError, ProtocolError
 from antikol.ingest.nmea import SKIP_REASONS, NmeaReader, read_nmea_directory, read_nmea_file
+from antikol.ingest.nmea_fields import MAX_LINE_BYTES, log_lines
 from antikol.ingest.nmea_spec import KNOT_MPS
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.report import VehicleReport
@@ -676,6 +680,7 @@ def test_skip_reasons_are_documented() -> None:
         rmc("120004", talker="GP"),
         rmc("120003"),
         rmc("120004", "150325"),  # a year ahead
+        "$" + "x" * MAX_LINE_BYTES,
     ]
     _, reader = read_all(lines)
     assert set(reader.stats.skipped) == set(SKIP_REASONS)
@@ -822,6 +827,48 @@ def test_read_nmea_file_explicit_id_and_line_endings(tmp_path: Path) -> None:
         assert [(r.vehicle_id, r.t, r.length_m) for r in reports] == [("T1", CLASSIC_T, 30.0)]
         assert stats.lines == 3
         assert stats.skipped == {"not_nmea": 1, "unpaired": 1}
+
+
+def test_an_over_long_line_is_one_problem_and_never_held(tmp_path: Path) -> None:
+    long = b"$GPRMC," + b"x" * (20 << 20)  # 20 MB; a sentence has at most 82 characters
+    for newline in (b"\n", b"\r\n", b"\r"):
+        path = tmp_path / "t1.nmea"
+        head, tail = rmc("120000").encode(), rmc("120001").encode()
+        path.write_bytes(newline.join([head, long, tail, long]))  # the last one unended
+        tracemalloc.start()
+        try:
+            reports, stats = read_nmea_file(path)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert peak < 2 << 20, peak
+        assert [r.t for r in reports] == [utc(2024, 3, 15, 12, 0, s) for s in (0, 1)]
+        assert stats.lines == 4 and stats.skipped == {"too_long": 2}
+    assert NmeaReader("t1").feed_line("$" + "x" * MAX_LINE_BYTES) == []
+
+
+def test_a_cr_only_log_longer_than_a_line_is_read_line_by_line(tmp_path: Path) -> None:
+    lines = [rmc(f"12{m:02d}{s:02d}") for m in range(60) for s in range(60)]
+    path = write_log(tmp_path / "t1.nmea", lines, "\r")
+    assert path.stat().st_size > 2 << 16  # several lines' and reads' worth
+    reports, stats = read_nmea_file(path)
+    assert len(reports) == len(lines) and stats.total_skipped == 0
+
+
+@given(
+    data=st.lists(st.sampled_from([b"ab", b"\r", b"\n", b"\r\n", b"x" * 7, b""]), max_size=40),
+    limit=st.integers(1, 9),
+    chunk=st.integers(1, 12),
+)
+def test_log_lines_split_at_any_line_end_and_cut_long_lines(
+    data: list[bytes], limit: int, chunk: int
+) -> None:
+    blob = b"".join(data)
+    want = re.split(rb"\r\n|\r|\n", blob)
+    if want[-1] == b"":  # the end of the last line, or an empty file
+        want.pop()
+    got = list(log_lines(io.BufferedReader(io.BytesIO(blob), 1), limit, chunk_bytes=chunk))
+    assert got == [line[: limit + 1] for line in want]
 
 
 def test_read_nmea_file_missing_raises_input_file_error(tmp_path: Path) -> None:

@@ -7,6 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol import ReplayError
@@ -119,6 +121,82 @@ def test_optional_columns_in_any_order_and_empty_cells(tmp_path):
     assert [pr.line for pr in log.problems] == [5, 6, 7]
     assert "seq='x' is not an integer" in log.problems[0].reason
     assert "length_m" in log.problems[1].reason and "braking" in log.problems[2].reason
+
+
+# What float()/int() accept beyond plain ASCII decimal syntax: digit-group underscores,
+# digits of other scripts, Unicode spaces, words; a CSV cell must not mean 10 by '1_0'.
+_NOT_PLAIN = ["1_0", "\u0661\u0662", "\uff15", "1\u00a0", "\u20035", "\x0c5", "0_1", "1e1_0"]
+_NUMERIC_COLUMNS = ("t", "lat", "lon", "speed_mps", "course_deg", *REPLAY_OPTIONAL_COLUMNS[1:])
+_HEADER = "vehicle_id,t,lat,lon,speed_mps,course_deg," + ",".join(REPLAY_OPTIONAL_COLUMNS[1:])
+# a valid row for _HEADER, by column (integers where the column takes an integer)
+_VALID = {"t": "5", "lat": "50", "lon": "19", "speed_mps": "1", "course_deg": "1"} | {
+    "length_m": "30",
+    "antenna_offset_m": "2",
+    "seq": "7",
+    "hdop": "1",
+    "fix_quality": "1",
+    "odometer_m": "100",
+}
+
+
+def _row(column: str, text: str) -> str:
+    cells = [_VALID[c] if c != column else text for c in _NUMERIC_COLUMNS]
+    return "T1," + ",".join(cells) + "\n"
+
+
+@pytest.mark.parametrize("column", _NUMERIC_COLUMNS)
+def test_numbers_are_plain_ascii_decimals_in_every_column(tmp_path, column):
+    p = tmp_path / "log.csv"
+    p.write_text(
+        _HEADER + "\n" + _row(column, " 3 ") + "".join(_row(column, x) for x in _NOT_PLAIN),
+        encoding="utf-8",
+    )
+    log = read_replay_csv(p)
+    assert [getattr(r, column) for r in log.reports] == [3]  # spaces around are fine
+    assert [pr.line for pr in log.problems] == list(range(3, 3 + len(_NOT_PLAIN)))
+    assert all(f"{column}=" in pr.reason and "not a" in pr.reason for pr in log.problems)
+    with pytest.raises(ReplayError, match=rf"log.csv:3: {column}='1_0' is not"):
+        read_replay_csv(p, strict=True)
+
+
+_PLAIN = st.from_regex(r"\A[+-]?([0-9]{1,12}(\.[0-9]{0,6})?|\.[0-9]{1,6})([eE][+-]?[0-9]{1,2})?\Z")
+
+
+def _unplain(draw_text: str, how: int, where: int) -> str:
+    """``draw_text`` changed into something float() still reads but that is not plain."""
+    digits = [k for k, c in enumerate(draw_text) if c.isdigit()]
+    k = digits[where % len(digits)]
+    if how == 0:  # the same digit in another script (Arabic-Indic, fullwidth, Devanagari)
+        base = (0x0660, 0xFF10, 0x0966)[where % 3]
+        return draw_text[:k] + chr(base + int(draw_text[k])) + draw_text[k + 1 :]
+    if how == 1 and k + 1 < len(draw_text) and draw_text[k + 1].isdigit():
+        return draw_text[: k + 1] + "_" + draw_text[k + 1 :]
+    if how == 2:
+        return "nan"[: where % 3 + 1] if where % 2 else "-inf"
+    return "\u2003" + draw_text + "\u00a0"  # Unicode spaces around
+
+
+@settings(max_examples=200, deadline=None)
+@given(text=_PLAIN, how=st.integers(0, 3), where=st.integers(0, 100))
+def test_only_plain_decimal_syntax_is_a_number(tmp_path_factory, text, how, where):
+    d = tmp_path_factory.mktemp("n")
+    other = _unplain(text, how, where)
+    try:
+        float(other)
+    except ValueError:  # 'n', 'na': not even float() reads it
+        other = "\u00a0" + text
+    unsigned = text.lstrip("+-")  # an odometer is not negative
+    p = d / "log.csv"
+    p.write_text(
+        "vehicle_id,t,lat,lon,speed_mps,course_deg,odometer_m\n"
+        f"T1,{text},50,19,1,1,{unsigned}\nT1,{other},50,19,1,1,\nT1,1,50,19,1,1,{other}\n",
+        encoding="utf-8",
+    )
+    log = read_replay_csv(p)
+    # plain: read as float() reads it; not plain: refused, naming the line and the field
+    assert [(r.t, r.odometer_m) for r in log.reports] == [(float(text), float(unsigned))]
+    assert [pr.line for pr in log.problems] == [3, 4]
+    assert "t=" in log.problems[0].reason and "odometer_m=" in log.problems[1].reason
 
 
 def test_optional_column_named_twice_is_an_error(tmp_path):

@@ -8,7 +8,9 @@ recognised by name (``.csv.gz`` is read as ``.csv``).
 
 A compressed file cut short (an interrupted download) keeps what it holds: the records
 before the cut are read, and the cut is reported as a problem of the file (see
-:class:`Decoded`), never passed over in silence.
+:class:`Decoded`), never passed over in silence. Concatenated members (and xz's stream
+padding between them) are one content, decompressed a bounded amount at a time, so a
+stream read line by line holds little however much a few compressed bytes unpack to.
 
 >>> import gzip, tempfile, os
 >>> with tempfile.TemporaryDirectory() as d:
@@ -54,6 +56,9 @@ _MAGIC: Final = (
 )
 #: Compressed bytes fed at a time: a damaged stream loses at most what this holds.
 _CHUNK: Final = 1 << 14
+#: Content decompressed at most per call: a few bytes of bzip2 may hold gigabytes, and a
+#: stream read a little at a time must not hold them all at once.
+_MAX_OUT: Final = 1 << 16
 
 
 class Decoded(NamedTuple):
@@ -108,8 +113,9 @@ def _decompressor(compression: str) -> Any:
 
 
 class DecompressedStream(io.RawIOBase):
-    """A compressed file read as its content, one or more concatenated members; a cut or
-    damaged stream ends the content there and says why (:attr:`problem`)."""
+    """A compressed file read as its content, one or more concatenated members (xz streams
+    also with the stream padding xz allows between and after them: NUL bytes, a multiple
+    of 4); a cut or damaged stream ends the content there and says why (:attr:`problem`)."""
 
     def __init__(self, raw: BinaryIO, compression: str) -> None:
         super().__init__()
@@ -118,6 +124,8 @@ class DecompressedStream(io.RawIOBase):
         self._unpack = _decompressor(compression)
         self._out = b""
         self._done = False
+        # the last call filled _MAX_OUT: more may come out without new input
+        self._full = False
         self.size = 0
         #: Why the content ended early (None: it did not).
         self.problem: str | None = None
@@ -134,21 +142,45 @@ class DecompressedStream(io.RawIOBase):
         """Decompress until there is output or the stream ends."""
         while not self._out and not self._done:
             unpack = self._unpack
-            chunk = unpack.unused_data if unpack.eof else self._raw.read(_CHUNK)
             if unpack.eof:  # the next member of the file, or the end
-                if not chunk:
-                    chunk = self._raw.read(_CHUNK)
+                chunk = self._next_member(unpack.unused_data)
                 if not chunk:
                     self._done = True
                     return
                 unpack = self._unpack = _decompressor(self.compression)
-            elif not chunk:
-                self._end(f"the {self.compression} stream ends early")
-                return
+            else:
+                # zlib keeps the input it did not get to; bzip2 and xz keep it inside
+                chunk = getattr(unpack, "unconsumed_tail", b"")
+                if not chunk and not self._full:
+                    chunk = self._raw.read(_CHUNK)
+                    if not chunk:
+                        self._end(f"the {self.compression} stream ends early")
+                        return
             try:
-                self._out = unpack.decompress(chunk)
+                self._out = unpack.decompress(chunk, _MAX_OUT)
             except (EOFError, OSError, lzma.LZMAError, zlib.error, ValueError) as exc:
                 self._end(f"the {self.compression} stream is damaged ({exc})")
+            self._full = len(self._out) == _MAX_OUT
+
+    def _next_member(self, data: bytes) -> bytes:
+        """The first bytes of the member after one that ended (``data``: what followed it
+        in the last chunk), or b"" at the end of the file or after bad stream padding."""
+        padding = 0
+        while True:
+            if not data:
+                data = self._raw.read(_CHUNK)
+            if self.compression != "xz" or not data:
+                break
+            # xz's stream padding: NUL bytes, which may run across chunks
+            rest = data.lstrip(b"\0")
+            padding += len(data) - len(rest)
+            data = rest
+            if data:
+                break
+        if padding % 4:  # xz -d refuses it too: the file is damaged there
+            self._end(f"the xz stream padding of {padding:,} bytes is not a multiple of 4")
+            return b""
+        return data
 
     def _end(self, why: str) -> None:
         self._done = True

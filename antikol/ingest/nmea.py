@@ -82,8 +82,8 @@ Counted per sentence in :attr:`NmeaStats.skipped` (a line without any ``$`` coun
 the sentences of a skipped epoch all count under the epoch's reason):
 ``"empty"``, ``"not_nmea"``, ``"garbled"``, ``"checksum"``, ``"unsupported"``,
 ``"void_fix"``, ``"no_time"``, ``"invalid_value"``, ``"no_speed"``, ``"no_course"``,
-``"unpaired"``, ``"duplicate"``, ``"time_backwards"``, ``"time_jump"`` (see
-:data:`SKIP_REASONS`).
+``"unpaired"``, ``"duplicate"``, ``"time_backwards"``, ``"time_jump"``, ``"too_long"``
+(see :data:`SKIP_REASONS`).
 
 Writer
 ------
@@ -112,7 +112,9 @@ from antikol.errors import InputFileError, InvalidReportError
 from antikol.ingest.compressed import logical_stem, logical_suffix, open_input, stream_problem
 from antikol.ingest.nmea_fields import (
     LEAP_SECOND,
+    MAX_LINE_BYTES,
     SkipSentence,
+    log_lines,
     parse_coordinate,
     parse_course,
     parse_rmc_date,
@@ -174,6 +176,7 @@ SKIP_REASONS: Final[dict[str, str]] = {
     "duplicate": "second sentence of a kind in one epoch, or a report time repeated",
     "time_backwards": "report time earlier than the previous report's",
     "time_jump": "report time later than the previous report's by more than max_time_jump_s",
+    "too_long": f"line longer than {MAX_LINE_BYTES} bytes (a sentence has at most 82)",
 }
 
 #: Sentence types used, with the fields they need at least (through date, HDOP, km/h unit).
@@ -342,7 +345,8 @@ class NmeaReader:
         line : str or bytes
             One line, with or without its CR/LF; bytes are decoded as ASCII (invalid bytes
             make the sentence containing them ``"garbled"``). Leading garbage before the
-            ``$`` is ignored. Several sentences glued on one line are read one by one.
+            ``$`` is ignored. Several sentences glued on one line are read one by one. A
+            line longer than ``MAX_LINE_BYTES`` is skipped whole (``"too_long"``).
 
         Returns
         -------
@@ -357,6 +361,9 @@ class NmeaReader:
             text = line
         else:
             self._skip("garbled", f"not a str or bytes line: {type(line).__name__}")
+            return out
+        if len(text) > MAX_LINE_BYTES:  # no receiver's line: not searched for sentences
+            self._skip("too_long", f"a line of {len(text):,} characters")
             return out
         text = text.strip(_STRIP)
         if not text:
@@ -677,7 +684,8 @@ def read_nmea_file(
     Parameters
     ----------
     path : str or os.PathLike
-        The log file: one sentence per line (LF, CRLF or CR line ends).
+        The log file: one sentence per line (LF, CRLF or CR line ends). A line longer than
+        ``MAX_LINE_BYTES`` is skipped as ``"too_long"`` and read past without being held.
     vehicle_id : str, optional
         Identifier of the vehicle; defaults to the file name without its suffix (and
         without a compression suffix: ``t1.nmea.gz`` is ``t1``).
@@ -707,10 +715,8 @@ def read_nmea_file(
             antenna_offset_m=antenna_offset_m,
         )
         try:
-            for chunk in stream:
-                # Lines end in LF or CRLF; a CR-only file arrives as one chunk.
-                for line in chunk.rstrip(b"\r\n").split(b"\r"):
-                    reports.extend(reader.feed_line(line))
+            for line in log_lines(stream):  # an over-long line is not held, only its start
+                reports.extend(reader.feed_line(line))
         except OSError as err:
             raise InputFileError(f"cannot read NMEA file {str(file)!r}: {err}") from err
         cut = stream_problem(stream)

@@ -1,14 +1,16 @@
 """Field parsers of the NMEA reader (:mod:`antikol.ingest.nmea`): time of day, date,
 coordinates, speed and course of a parsed sentence, each rejecting doubtful values with
-:class:`SkipSentence` (a reason of :data:`antikol.ingest.nmea.SKIP_REASONS`).
+:class:`SkipSentence` (a reason of :data:`antikol.ingest.nmea.SKIP_REASONS`); and the
+lines of a log file in bounded memory (:func:`log_lines`).
 """
 
 from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterator
 from datetime import date, time
-from typing import Literal
+from typing import BinaryIO, Final, Literal
 
 from pynmeagps import NMEAMessage
 
@@ -18,7 +20,9 @@ from antikol.report import MAX_SPEED_MPS
 # Used by the reader only; public names so that it does not reach into private ones.
 __all__ = [
     "LEAP_SECOND",
+    "MAX_LINE_BYTES",
     "SkipSentence",
+    "log_lines",
     "parse_coordinate",
     "parse_course",
     "parse_rmc_date",
@@ -31,6 +35,10 @@ _HHMMSS = re.compile(r"\d{6}(?:\.\d{1,6})?")
 _DDMMYY = re.compile(r"\d{6}")
 LEAP_SECOND = re.compile(r"235960(?:\.(?P<frac>\d{1,6}))?")
 _DDMM = re.compile(r"(?P<deg>\d{2,3})(?P<min>\d{2}\.\d+)")
+#: A longer line is skipped as ``"too_long"``, bytes (or characters): a sentence has at
+#: most 82 characters, so this leaves room for some 200 glued on one line.
+MAX_LINE_BYTES: Final = 1 << 14
+_LINE_END = re.compile(rb"\r\n|\r|\n")
 
 
 class SkipSentence(Exception):
@@ -110,3 +118,42 @@ def parse_course(value: object, what: str) -> float | None:
     if not (isinstance(value, float) and 0.0 <= value <= 360.0):
         raise SkipSentence("invalid_value", f"{what} {value!r}")
     return 0.0 if value == 360.0 else value
+
+
+def log_lines(
+    stream: BinaryIO, limit: int = MAX_LINE_BYTES, *, chunk_bytes: int = 1 << 16
+) -> Iterator[bytes]:
+    """The lines of a binary stream without their ends (LF, CRLF or CR), in bounded memory.
+
+    A line longer than ``limit`` bytes comes cut to its first ``limit + 1`` (so that the
+    reader sees it is too long); the rest of it is read past, never held.
+
+    Parameters
+    ----------
+    stream : binary file
+    limit : int
+        Longest line passed whole, bytes.
+    chunk_bytes : int
+        Bytes read at a time.
+
+    Yields
+    ------
+    bytes
+    """
+    pending = b""  # the line in progress (unless it is too long: then head)
+    head: bytes | None = None  # the start of a line in progress found too long
+    while chunk := stream.read(chunk_bytes):
+        data = pending + chunk
+        hold = b""
+        if data.endswith(b"\r"):  # maybe the first half of a CRLF split between reads
+            data, hold = data[:-1], b"\r"
+        parts = _LINE_END.split(data)
+        pending = parts.pop() + hold
+        for part in parts:
+            yield (part if head is None else head)[: limit + 1]
+            head = None
+        if len(pending) - len(hold) > limit:
+            head = pending[: limit + 1] if head is None else head
+            pending = hold
+    if head is not None or pending:  # a last line without its end (or ended by a CR)
+        yield (pending.removesuffix(b"\r") if head is None else head)[: limit + 1]

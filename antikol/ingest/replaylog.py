@@ -8,6 +8,8 @@ in any order; the reader puts them into the reports, and an empty cell means "no
 (the report's default: ``braking="none"``, the others None). Other columns after the
 required ones are ignored; an optional column named twice in the header is an error.
 Units are those of :class:`~antikol.report.VehicleReport` (s, degrees, m/s, metres).
+Numbers are plain ASCII decimals (``-12``, ``0.5``, ``1e3``; spaces around are ignored):
+``1_0``, digits of other scripts or other white space are bad values, not 10.
 
 The reader decodes the file line by line (:func:`iter_replay_csv`): a line that is not
 UTF-8, not a CSV row, too short or holds a bad value is rejected with its line number and
@@ -26,6 +28,7 @@ import logging
 import math
 import os
 import pickle
+import re
 import tempfile
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -56,15 +59,44 @@ logger = logging.getLogger(__name__)
 
 #: The required columns of a replay CSV, in order.
 REPLAY_COLUMNS: Final = ("vehicle_id", "t", "lat", "lon", "speed_mps", "course_deg")
+# Numbers are plain ASCII decimals: float() and int() alone would also read '1_0' as 10,
+# digits of other scripts ('١٢' as 12) and Unicode spaces, which no writer of the format
+# emits and which would turn a damaged cell into a wrong value. The words nan and inf are
+# read so that the report refuses them naming the field, as it always did.
+_FLOAT_SYNTAX: Final = re.compile(
+    r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf(?:inity)?)",
+    re.ASCII | re.IGNORECASE,
+)
+_INT_SYNTAX: Final = re.compile(r"[+-]?[0-9]+")
+# spaces around a cell are tolerated (hand-edited logs); other white space is not
+_CELL_SPACE: Final = " \t"
+
+
+def _plain_float(text: str) -> float:
+    """``float(text)`` of a cell in plain decimal syntax; ValueError for anything else."""
+    cell = text.strip(_CELL_SPACE)
+    if _FLOAT_SYNTAX.fullmatch(cell) is None:
+        raise ValueError(f"not a plain decimal number: {cell!r}")
+    return float(cell)
+
+
+def _plain_int(text: str) -> int:
+    """``int(text)`` of a cell of plain decimal digits; ValueError for anything else."""
+    cell = text.strip(_CELL_SPACE)
+    if _INT_SYNTAX.fullmatch(cell) is None:
+        raise ValueError(f"not a plain decimal integer: {cell!r}")
+    return int(cell)  # ValueError too beyond Python's 4300 digits
+
+
 # How the reader turns a non-empty cell of each optional column into a report field.
 _OPTIONAL_PARSERS: Final[dict[str, Callable[[str], Any]]] = {
     "braking": str,
-    "length_m": float,
-    "antenna_offset_m": float,
-    "seq": int,
-    "hdop": float,
-    "fix_quality": int,
-    "odometer_m": float,
+    "length_m": _plain_float,
+    "antenna_offset_m": _plain_float,
+    "seq": _plain_int,
+    "hdop": _plain_float,
+    "fix_quality": _plain_int,
+    "odometer_m": _plain_float,
 }
 #: The optional columns that may follow the required ones, in any order.
 REPLAY_OPTIONAL_COLUMNS: Final = tuple(_OPTIONAL_PARSERS)
@@ -359,22 +391,25 @@ def _row_report(row: Sequence[str], optional: Mapping[str, int]) -> VehicleRepor
     values: dict[str, Any] = {"vehicle_id": row[0].strip()}
     for name, text in zip(REPLAY_COLUMNS[1:], row[1:6], strict=True):
         try:
-            values[name] = float(text)
+            values[name] = _plain_float(text)
         except ValueError:
             raise _RowError(
-                f"{name} not a number", f"{name}={_short(text)} is not a number"
+                f"{name} not a number",
+                f"{name}={_short(text)} is not a number (plain ASCII decimal)",
             ) from None
     for name, index in optional.items():
         # a row shorter than the header leaves its last optional cells not given
-        text = row[index].strip() if index < len(row) else ""
+        text = row[index].strip(_CELL_SPACE) if index < len(row) else ""
         if not text:
             continue
         parse = _OPTIONAL_PARSERS[name]
         try:
             values[name] = parse(text)
         except ValueError:
-            kind = "an integer" if parse is int else "a number"
-            raise _RowError(f"{name} not {kind}", f"{name}={_short(text)} is not {kind}") from None
+            kind = "an integer" if parse is _plain_int else "a number"
+            raise _RowError(
+                f"{name} not {kind}", f"{name}={_short(text)} is not {kind} (plain ASCII decimal)"
+            ) from None
     try:
         return VehicleReport(**values)
     except InvalidReportError as exc:
@@ -547,16 +582,18 @@ def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
 
     Files named ``*.nmea``, ``*.txt`` or ``*.log`` are read (not recursively), each possibly
     compressed with gzip, bzip2 or xz (``t1.nmea.gz``; a log cut short keeps its sentences
-    before the cut, and the cut is a problem of the file); each file's name without its
-    suffixes is the vehicle id. A file in which no line holds an NMEA
-    sentence (no ``$``: a ``README.txt``, notes) is not a vehicle's log: it is counted in
-    :attr:`ReplayLog.ignored` under its name. Skipped sentences are reported per file.
+    before the cut, and the cut is a problem of the file, also when no sentence came
+    before it); each file's name without its suffixes is the vehicle id. An intact file
+    in which no line holds an NMEA sentence (no ``$``: a ``README.txt``, notes) is not a
+    vehicle's log: it is counted in :attr:`ReplayLog.ignored` under its name. Skipped
+    sentences are reported per file.
 
     Raises
     ------
     InputFileError
-        ``path`` is not a readable directory, holds no NMEA log, or holds two logs of one
-        vehicle (``t1.nmea`` and ``t1.log``).
+        ``path`` is not a readable directory, holds no NMEA log (the message names the
+        first files that could not be used, and why), or holds two logs of one vehicle
+        (``t1.nmea`` and ``t1.log``).
     """
     from antikol.ingest.nmea import FILE_SUFFIXES, list_nmea_files, read_nmea_file
 
@@ -572,7 +609,17 @@ def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
                 RowProblem(0, f"the file name is not a vehicle id: {exc}", str(file), code="file")
             )
             continue
-        if not stats.used and set(stats.skipped) <= {"not_nmea", "empty"}:
+        if not stats.used and set(stats.skipped) <= {"not_nmea", "empty", "too_long"}:
+            if stats.cut is not None:  # damaged before any sentence: not a README
+                log.problems.append(
+                    RowProblem(
+                        0,
+                        f"no NMEA sentence before the damage: {stats.cut}",
+                        str(file),
+                        code="compressed stream cut",
+                    )
+                )
+                continue
             reason = f"not an NMEA log (no sentence in {stats.lines} line(s)): {file.name}"
             log.ignored[reason] = log.ignored.get(reason, 0) + 1
             continue
@@ -599,9 +646,11 @@ def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
                 RowProblem(0, f"{vehicle}: {stats.cut}", str(file), code="compressed stream cut")
             )
     if not by_vehicle:
+        # the problems (damaged files, bad names) are why, and would be lost with the log
+        why = "".join(f"; {Path(p.source).name}: {p.reason}" for p in log.problems[:3])
         raise InputFileError(
             f"no NMEA logs ({', '.join('*' + s for s in FILE_SUFFIXES)} files with NMEA "
-            f"sentences) in {str(directory)!r}"
+            f"sentences) in {str(directory)!r}{why}"
         )
     log.reports.sort(key=lambda r: (r.t, r.vehicle_id))
     return log
