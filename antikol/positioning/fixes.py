@@ -8,12 +8,22 @@ windows and a tolerated number of missed fixes):
   pins the vehicle to the fix's track and resets its along-track error;
 * a fix outside the window does not move the vehicle: its position becomes ``lost``;
 * fix points the vehicle passes without reporting them are counted as missed; more than
-  ``max_missed_fixes`` in a row also make the position ``lost``.
+  ``max_missed_fixes`` in a row also make the position ``lost``;
+* a fix is weighed against the vehicle's latest position (its last report, or its last
+  accepted fix) carried to the fix's time, so it must be dated from then on: an older one
+  is refused as late (counted ``fix_late``). The along-track filter keeps no past to weigh
+  it against (against where the vehicle is now, past the fix point, it would be found
+  outside the window), and pinning the vehicle there would turn the filter's clock back
+  (1000 s back, the vehicle's next report found it hundreds of kilometres uncertain: lost).
+  A fix dated more than ``dead_reckoning_s`` after the latest position is refused too
+  (``fix_ahead``): the prediction is dead reckoning past its limit, and pinning there would
+  set the filter's clock ahead of the reports still to come.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -23,6 +33,7 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis
 
 if TYPE_CHECKING:
+    from antikol.positioning.fleet import FleetState
     from trackmap import TrackMap
 
 __all__ = ["DiscreteFixes", "FixHooks"]
@@ -152,6 +163,34 @@ class DiscreteFixes:
                 remaining.append((fid, s_exp))
         vf.expected = remaining
         return vf.missed > c.max_missed_fixes
+
+    def refuses(
+        self, vid: str, fix: DiscreteFix, fleet: FleetState, row: int | None, stats: Counter[str]
+    ) -> bool:
+        """Whether a (checked) fix cannot be weighed, counted: the vehicle is not known, or
+        has no track position (``fix_unusable``), or the fix is dated before its latest
+        position, its along-track filter's time (``fix_late``), or more than
+        ``dead_reckoning_s`` after it (``fix_ahead``)."""
+        if (
+            row is None
+            or fleet.last[row] is None
+            or fleet.hs[row, 0] < 0
+            or math.isnan(fleet.kf.t[row])
+        ):
+            stats["fix_unusable"] += 1
+            return True
+        after_s = fix.t - float(fleet.kf.t[row])
+        if 0.0 <= after_s <= self.config.dead_reckoning_s:
+            return False
+        stats["fix_late" if after_s < 0.0 else "fix_ahead"] += 1
+        logger.info(
+            "%s: fix %s at t=%g s is %g s from the latest position: refused",
+            vid,
+            fix.fix_id,
+            fix.t,
+            after_s,
+        )
+        return True
 
     def apply(self, vid: str, positioner: FixHooks, row: int, fix: DiscreteFix) -> None:
         """Accept a fix inside its window (pin the vehicle) or declare the position lost."""

@@ -21,6 +21,7 @@ from antikol.report import VehicleReport
 
 __all__ = [
     "SLOT_FIELDS",
+    "UNKNOWN_AT_START",
     "VEHICLE_FIELDS",
     "FleetState",
     "RunSinceFix",
@@ -47,7 +48,7 @@ VEHICLE_FIELDS = (
     "qx", "qy", "qt", "qv", "qc", "qe", "qr", "qn",
 )  # fmt: skip
 #: Per-vehicle fields that a new row does not know yet (NaN); the others start at 0.
-_UNKNOWN_AT_START = (
+UNKNOWN_AT_START = (
     "t", "x", "y", "odo", "odo_fix", "t_fix", "lc", "lt", "rx", "ry", "t_nofix", "v_nofix",
     "ux", "uy", "utrail", "ut", "uv", "oraw", "ocor", "olf", "zlf", "oq", "ostep",
     "kraw", "kt", "klow", "kmin", "sc", "tt", "qx", "qy", "qt", "qv", "qc",
@@ -261,7 +262,7 @@ class FleetState:
         self.hp[row] = -math.inf
         self.hv[row] = -1.0
         self.forget_before(row)
-        for name in _UNKNOWN_AT_START:
+        for name in UNKNOWN_AT_START:
             getattr(self, name)[row] = np.nan
         self.v[row] = self.z[row] = self.place[row] = self.run[row] = self.stood[row] = 0.0
         self.run_nofix[row] = self.urun[row] = self.udisp[row] = self.urep[row] = 0.0

@@ -68,6 +68,7 @@ from antikol.positioning.feedfaults import stale_fixes, unusable_odometers
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import FleetState
+from antikol.positioning.inputs import check_state, checked_fix, checked_report, checked_reports
 from antikol.positioning.kalman import track_estimate
 from antikol.positioning.lineage import plan_slots
 from antikol.positioning.odometerhold import held_readings
@@ -174,6 +175,7 @@ class Positioner:
         Parameters
         ----------
         report : VehicleReport
+            Anything else is refused (:class:`~antikol.errors.InvalidArgumentError`).
 
         Returns
         -------
@@ -181,7 +183,7 @@ class Positioner:
             The vehicle's position after the report (unchanged if the report was rejected;
             ``unmatched`` at the report if no report of the vehicle was ever taken).
         """
-        self.update_many([report], outputs=False)
+        self.update_many([checked_report(report)], outputs=False)
         return self.position(report.vehicle_id) or unmatched_position(report, report.t)
 
     @gc_paused
@@ -194,7 +196,8 @@ class Positioner:
         ----------
         reports : sequence of VehicleReport
             One report per vehicle is typical (one cycle); several reports of one vehicle
-            are processed in their order.
+            are processed in their order. An item that is not a report refuses the batch
+            before any is fused (:class:`~antikol.errors.InvalidArgumentError`, ``reports[i]``).
         outputs : bool
             Return the positions (skip it when they are read later anyway).
 
@@ -204,7 +207,7 @@ class Positioner:
             One per report, in their order (empty when ``outputs`` is False): each vehicle's
             position after its last report here, as :meth:`update` gives it.
         """
-        reports = in_recognised_units(self._f, self._row, reports)
+        reports = in_recognised_units(self._f, self._row, checked_reports(reports))
         ids = [r.vehicle_id for r in reports]
         passes = one_per_vehicle(reports)
         # each vehicle's position after its last report here (None: ask again at the end)
@@ -717,21 +720,18 @@ class Positioner:
         predicted position, ``fix_window_base_m + fix_window_fraction x distance since the
         last accepted fix``. An accepted fix resets the along-track error and pins the
         vehicle to the fix's track; a fix outside the window makes the position ``lost``.
+        One dated before the vehicle's latest position, or long after it, is refused and
+        counted (``fix_late``, ``fix_ahead``; :mod:`antikol.positioning.fixes`); one not of
+        this map raises :class:`~antikol.errors.InvalidArgumentError` naming the field.
 
         Returns
         -------
         TrackPosition or None
             The new position (None for an unknown vehicle).
         """
-        row = self._row.get(vehicle_id)
-        if (
-            row is None
-            or self._f.last[row] is None
-            or self._f.hs[row, 0] < 0
-            or math.isnan(self._f.kf.t[row])
-        ):
-            self.stats["fix_unusable"] += 1
-            return self.position(vehicle_id)
+        fix, row = checked_fix(self.reach.lengths, fix), self._row.get(vehicle_id)
+        if self.fixes.refuses(vehicle_id, fix, self._f, row, self.stats) or row is None:
+            return self.position(vehicle_id)  # (counted; an unknown vehicle is refused too)
         self.fixes.apply(vehicle_id, self, row, fix)
         self._cache.pop(vehicle_id, None)
         return self.position(vehicle_id, fix.t)
@@ -785,16 +785,15 @@ class Positioner:
         }
 
     def restore(self, vehicle_id: str, data: dict[str, Any]) -> None:
-        """Restore a state produced by :meth:`state`."""
+        """Restore a state produced by :meth:`state` on this map; any other is refused before
+        anything changes (:class:`~antikol.errors.InvalidArgumentError` naming the vehicle
+        and the key, :func:`~antikol.positioning.inputs.check_state`)."""
+        reported = check_state(self.reach.lengths, vehicle_id, data)
         self.forget(vehicle_id)
         row = self._row_of(vehicle_id)
         m = self._f.restore_row(row, data)
         self.fixes.restore(vehicle_id, data.get("fixes"))
-        for key, memory in (
-            ("reported", self._reported),
-            ("reported_before", self._reported_before),
-        ):
-            if data.get(key) is not None:  # where the switch hold placed it
-                edge, direction = data[key]
-                memory[vehicle_id] = (int(edge), int(direction))
+        for memory, where in zip((self._reported, self._reported_before), reported, strict=True):
+            if where is not None:  # where the switch hold placed it
+                memory[vehicle_id] = where
         self._f.place[row] = self._place_probabilities(np.array([row]))[0] if m else 0.0
