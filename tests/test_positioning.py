@@ -403,7 +403,12 @@ def test_a_scale_of_the_config_must_be_positive(name, value):
 
 @pytest.mark.parametrize(
     ("name", "value"),
-    [("confident_after", 0), ("max_hypotheses", 0), ("sure_probability", 1.5)],
+    [
+        ("confident_after", 0),
+        ("max_hypotheses", 0),
+        ("sure_probability", 1.5),
+        ("gps_sigma_m", 10**400),  # an int beyond a double raised a bare OverflowError
+    ],
 )
 def test_a_count_or_probability_of_the_config_out_of_range_is_refused(name, value):
     with pytest.raises(InvalidArgumentError, match=name):

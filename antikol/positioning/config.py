@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass, fields
 
 from antikol.errors import InvalidArgumentError
+from antikol.numeric import finite_float
 from antikol.thresholds import FILTER_NIS_GATE
 
 __all__ = ["MAX_HDOP", "PositioningConfig", "hdop_factor"]
@@ -351,7 +352,7 @@ class PositioningConfig:
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise InvalidArgumentError(f.name, value, "must be a number")
-            if not math.isfinite(value):
+            if finite_float(value) is None:  # (an int beyond a double: OverflowError before)
                 raise InvalidArgumentError(f.name, value, "must be finite")
             if f.name.endswith("log_prior"):
                 if value > 0.0:
