@@ -53,6 +53,7 @@ from antikol.ingest.nmea import NmeaReader
 from antikol.ingest.protocol import DecoderStats, FrameVerifier, StreamDecoder
 from antikol.numeric import finite_float
 from antikol.positioning.config import PositioningConfig
+from antikol.positioning.inputs import checked_report, checked_reports
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.outputs import asked_time
 from antikol.positioning.records import (
@@ -263,7 +264,7 @@ class Analyser:
         TableUpdate
             What the vehicle table did with it.
         """
-        _check_report(report)
+        checked_report(report)
         result = self._table_update(report)
         if self._source is not None and result.accepted:
             self._pending.append(report)
@@ -276,11 +277,7 @@ class Analyser:
         together, in one vectorised update, when a position or an assessment is next asked
         for. One report the positioning cannot use never stops the others: it is counted
         in :attr:`stats` and the vehicle keeps its previous state."""
-        if isinstance(reports, VehicleReport) or not isinstance(reports, Iterable):
-            raise InvalidArgumentError("reports", reports, "must be an iterable of VehicleReport")
-        reports = list(reports)  # (a generator is read once: by the table, then positioning)
-        for r in reports:
-            _check_report(r)
+        reports = checked_reports(reports)  # (a list: a generator is read twice)
         results = [self._table_update(r) for r in reports]
         if self._source is not None:
             self._pending.extend(r for r, res in zip(reports, results, strict=True) if res.accepted)
@@ -728,8 +725,3 @@ def _check_vehicle_id(value: object, name: str) -> None:
     """A vehicle id argument must be a string (a list raised "unhashable type")."""
     if not isinstance(value, str):
         raise InvalidArgumentError(name, value, "must be a vehicle id (str)")
-
-
-def _check_report(value: object) -> None:
-    if not isinstance(value, VehicleReport):
-        raise InvalidArgumentError("report", value, "must be a VehicleReport")

@@ -17,9 +17,9 @@ from dataclasses import dataclass, field, fields
 from typing import Literal
 
 from antikol.analysis.alarms import AlarmPolicy
+from antikol.analysis.arguments import finite
 from antikol.analysis.branches import BranchSettings
 from antikol.errors import InvalidArgumentError
-from antikol.numeric import finite_float, why_not_finite
 from antikol.positioning.reported import ReportedSettings
 from antikol.thresholds import MIN_HORIZON_M, STANDING_SPEED_MPS
 
@@ -42,10 +42,8 @@ _PROBABILITIES = frozenset(
 )
 
 
-def _check_number(name: str, value: object, *, positive: bool) -> None:
-    number = finite_float(value)
-    if number is None:
-        raise InvalidArgumentError(name, value, why_not_finite(value))
+def _check_number(name: str, value: float, *, positive: bool) -> None:
+    number = finite(value, name)
     if positive and number <= 0.0:
         raise InvalidArgumentError(name, value, "must be > 0")
     if number < 0.0:
