@@ -12,15 +12,16 @@ vehicle position. The fields used here (HFP v2):
 ``tst``    UTC time, an ISO 8601 calendar date and time of day
            (``2023-12-14T08:00:01.123Z``); ``tsi`` (Unix seconds) when ``tst`` is
            missing; either in the years 1970 to 9999
-``lat``,   WGS84 degrees (null when unknown)
-``long``
+``lat``,   WGS84 degrees (null when unknown); ``latitude`` and ``longitude``
+``long``   (or ``lon``) in the archives that spell them out
 ``spd``    speed, m/s (null: derived from the previous record)
 ``hdg``    heading, degrees from north (null: derived, or the last one kept)
 ``odo``    odometer, metres — the report's ``odometer_m``
-``loc``    location source: ``GPS`` is a fix; ``ODO`` and ``DR`` are the
-           vehicle's own estimates (``fix_quality`` 6: dead-reckoned, the position
-           weighs the branches); ``MAN`` and ``N/A`` are no position (``fix_quality``
-           0, the last known one is kept)
+``loc``    location source (``locationQualityMethod`` in HSL's raw dumps): ``GPS``
+           is a fix; ``ODO`` and ``DR`` are the vehicle's own estimates
+           (``fix_quality`` 6: dead-reckoned, the position weighs the branches);
+           ``MAN`` and ``N/A`` are no position (``fix_quality`` 0, the last known one
+           is kept)
 =========  ===================================================================
 
 **Vehicle identity.** ``oper`` is the operator *running the trip*, which differs from
@@ -29,8 +30,11 @@ vehicle would split at every such trip, and two vehicles of the same number from
 owners would merge into one that jumps between them. So the vehicle's owner is used
 wherever the record gives it: the MQTT topic's operator and vehicle number
 (``/hfp/v2/journey/ongoing/vp/tram/0040/00412/...``: ``"40/412"``), else an archive's
-``unique_vehicle_id`` (``"40/412"``), else its ``owner_operator_id`` with
-``vehicle_number``, else ``oper`` with ``veh``.
+``unique_vehicle_id`` (``"40/412"``), else the owner (``owner_operator_id``,
+``vehicle_operator_id`` or ``operator_id``: the topic's operator) with
+``vehicle_number`` or ``veh``, else ``oper`` with ``veh``. A vehicle number alone
+(no operator at all) is the id: numbers repeat across operators, so a file of several
+operators needs one of the operator fields.
 
 A number is a JSON number or a string of a plain ASCII decimal number (``"8.2"``,
 ``"-1e3"``): ``"1_0"``, digits of other scripts, NaN and the infinities are refused, the
@@ -43,9 +47,16 @@ Accepted forms, one message per record:
   dump line, ``<topic> <payload>`` (``mosquitto_sub -v``);
 * a **JSON array** of messages (an element that cannot be read is a problem of its
   record; the elements after it are read on where the array's syntax allows);
-* the **CSV archive** form — a header with the same field names (``long`` or ``lon``),
-  optionally an event-type column (``event_type`` or ``eventType``; rows of other events
-  are ignored); a record is one line (a quote left open is a problem of its line alone).
+* the **CSV archive** forms — a header naming the fields above, in any case, with or
+  without underscores (the names are matched in lower case), optionally an event-type
+  column (``event_type`` or ``eventType``; rows of other events are ignored); a record
+  is one line (a quote left open is a problem of its line alone). Two of HSL's own
+  forms are read as they come: the raw dumps of every message (``tst``, ``eventType``,
+  ``ownerOperatorId``, ``vehicleNumber``, ``oper``, ``odo``, ``spd``, ``hdg``,
+  ``locationQualityMethod``, ``longitude``, ``latitude``...; stored compressed with
+  zstd, see :mod:`antikol.ingest.compressed`) and the HFP analytics API's export
+  (``tst`` as PostgreSQL writes it, ``2023-05-02 07:00:01+00``; ``operator_id``,
+  ``vehicle_number``, ``long``, ``lat``...).
 
 Messages of other event types (``DUE``, ``ARR``, ``DEP``, ``DOO``...) are counted as
 ignored. Bad records are reported with their line (or record) number and the field
@@ -116,6 +127,24 @@ _CSV_LINE: Final = re.compile(f"{_CSV_FIELD}(?:,{_CSV_FIELD})*")
 _JSON_TOKEN: Final = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[][{},]')
 
 
+#: The names each field goes by in the archive forms, in order of preference (a CSV
+#: header is read in lower case: HSL's raw dumps write ``vehicleNumber``, ``latitude``...;
+#: the topic's ``topicLatitude`` is the geohash cell, not the fix, and is not read).
+_UNIQUE_VEHICLE: Final = ("unique_vehicle_id", "uniquevehicleid")
+_VEHICLE_NUMBER: Final = ("vehicle_number", "vehiclenumber")
+_OWNER_OPERATOR: Final = (
+    "owner_operator_id",
+    "owneroperatorid",
+    "vehicle_operator_id",
+    "vehicleoperatorid",
+    "operator_id",
+    "operatorid",
+)
+_LATITUDE: Final = ("lat", "latitude")
+_LONGITUDE: Final = ("long", "lon", "longitude")
+_LOCATION_SOURCE: Final = ("loc", "locationqualitymethod", "location_quality_method")
+
+
 class HfpRecordError(ValueError):
     """An HFP record cannot be used (the message names the field)."""
 
@@ -154,6 +183,16 @@ def _number(fields: Mapping[str, Any], name: str, *, required: bool) -> float | 
     if not math.isfinite(number):
         raise HfpRecordError(f"{name}={_shown(value)} is not a finite number")
     return number
+
+
+def _given(fields: Mapping[str, Any], names: tuple[str, ...]) -> str:
+    """The first of a field's ``names`` that the record gives a value (not null, not an
+    empty CSV field), else the first name (for the message of a missing field)."""
+    for name in names:
+        value = fields.get(name)
+        if value is not None and not (isinstance(value, str) and not value.strip()):
+            return name
+    return names[0]
 
 
 def _time(fields: Mapping[str, Any]) -> float:
@@ -219,16 +258,18 @@ def _owned_id(operator: str | None, vehicle: str) -> str:
 
 
 def _vehicle_id(fields: Mapping[str, Any]) -> str:
-    unique = _first_id(fields, "unique_vehicle_id", "uniquevehicleid")
+    unique = _first_id(fields, *_UNIQUE_VEHICLE)
     if unique is not None:
         return "/".join(_plain(part) for part in unique.split("/"))
-    number = _first_id(fields, "vehicle_number", "vehiclenumber")
+    owner = _first_id(fields, *_OWNER_OPERATOR)
+    number = _first_id(fields, *_VEHICLE_NUMBER)
     if number is not None:
-        return _owned_id(_first_id(fields, "owner_operator_id", "owneroperatorid"), number)
+        return _owned_id(owner, number)
     veh = _id_text(fields, "veh")
     if veh is None:
         raise HfpRecordError("veh is missing")
-    return _owned_id(_id_text(fields, "oper"), veh)
+    # the trip's operator (oper) only where the record does not name the vehicle's owner
+    return _owned_id(owner if owner is not None else _id_text(fields, "oper"), veh)
 
 
 def topic_vehicle_id(topic: str) -> str | None:
@@ -278,19 +319,18 @@ def hfp_fields(
         number not a whole number or a string), or the time is unreadable or outside the
         years 1970 to 9999.
     """
-    loc = fields.get("loc")
+    loc_name = _given(fields, _LOCATION_SOURCE)
+    loc = fields.get(loc_name)
     if loc is not None and not isinstance(loc, str):
-        raise HfpRecordError(f"loc={_shown(loc)} is not a location source (GPS, ODO, DR...)")
+        raise HfpRecordError(f"{loc_name}={_shown(loc)} is not a location source (GPS, ODO, DR...)")
     source_kind = loc.strip().upper() if loc else "GPS"
     return FeedRecord(
         record=record,
         source=source,
         vehicle_id=vehicle_id if vehicle_id else _vehicle_id(fields),
         t=_time(fields),
-        lat=_number(fields, "lat", required=False),
-        lon=_number(fields, "long", required=False)
-        if fields.get("long") is not None
-        else _number(fields, "lon", required=False),
+        lat=_number(fields, _given(fields, _LATITUDE), required=False),
+        lon=_number(fields, _given(fields, _LONGITUDE), required=False),
         speed_mps=_number(fields, "spd", required=False),
         course_deg=_number(fields, "hdg", required=False),
         odometer_m=_number(fields, "odo", required=False),
@@ -443,16 +483,26 @@ def _json_messages(text: str) -> Iterator[_Message]:
 
 
 #: Header names of a vehicle's identity in the CSV archive forms (lower case).
-_VEHICLE_COLUMNS: Final = frozenset(
-    {"veh", "vehicle_number", "vehiclenumber", "unique_vehicle_id", "uniquevehicleid"}
-)
+_VEHICLE_COLUMNS: Final = frozenset({"veh", *_VEHICLE_NUMBER, *_UNIQUE_VEHICLE})
 
 
 def looks_like_hfp_csv(header: Iterable[str]) -> bool:
-    """Whether a CSV header names the HFP fields (``veh`` or the vehicle's owner and
-    number, ``tst`` or ``tsi``, ``lat``)."""
-    names = {h.strip().lstrip("\ufeff").lower() for h in header}
-    return bool(names & _VEHICLE_COLUMNS) and "lat" in names and bool(names & {"tst", "tsi"})
+    """Whether a CSV header names the HFP fields: the vehicle (``veh``,
+    ``vehicle_number`` or ``unique_vehicle_id``, in any case and with or without the
+    underscores), ``tst`` or ``tsi``, and ``lat`` or ``latitude``.
+
+    >>> looks_like_hfp_csv(["tst", "eventType", "ownerOperatorId", "vehicleNumber",
+    ...                     "latitude", "longitude"])
+    True
+    >>> looks_like_hfp_csv(["time", "vehicle", "lat", "lon"])
+    False
+    """
+    names = {h.strip().lstrip("\ufeff").strip('"').lower() for h in header}
+    return (
+        bool(names & _VEHICLE_COLUMNS)
+        and bool(names.intersection(_LATITUDE))
+        and bool(names & {"tst", "tsi"})
+    )
 
 
 def _csv_rows(text: str) -> Iterator[tuple[int, list[str] | HfpRecordError]]:
@@ -480,8 +530,8 @@ def _csv_records(text: str, path: Path) -> Iterator[_Message]:
     header = [h.strip().lstrip("\ufeff") for h in first[1]]
     if not looks_like_hfp_csv(header):
         raise ReplayError(
-            f"{path}: not an HFP CSV header (needs veh or vehicle_number, tst or tsi, "
-            "lat, long); "
+            f"{path}: not an HFP CSV header (needs veh, vehicle_number or "
+            "unique_vehicle_id; tst or tsi; lat or latitude; long, lon or longitude); "
             f"got {','.join(header)}"
         )
     lower = [h.lower() for h in header]

@@ -1,0 +1,262 @@
+"""HSL's own archive forms of HFP read as they come: the raw dumps (camelCase columns,
+``latitude``/``longitude``, ``locationQualityMethod``) and the HFP analytics API's CSV
+export (``operator_id``, PostgreSQL times)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from antikol.errors import ReplayError
+from antikol.ingest.hfp import hfp_fields, looks_like_hfp_csv, read_hfp
+
+#: The columns of a raw dump (every message, as HSL's sink writes it).
+RAW_DUMP_COLUMNS = [
+    "tst",
+    "eventType",
+    "receivedAt",
+    "topicPrefix",
+    "topicVersion",
+    "journeyType",
+    "isOngoing",
+    "mode",
+    "ownerOperatorId",
+    "vehicleNumber",
+    "uniqueVehicleId",
+    "routeId",
+    "directionId",
+    "headsign",
+    "journeyStartTime",
+    "nextStopId",
+    "geohashLevel",
+    "topicLatitude",
+    "topicLongitude",
+    "desi",
+    "dir",
+    "oper",
+    "veh",
+    "tsi",
+    "spd",
+    "hdg",
+    "latitude",
+    "longitude",
+    "acc",
+    "dl",
+    "odo",
+    "drst",
+    "oday",
+    "jrn",
+    "line",
+    "start",
+    "locationQualityMethod",
+    "stop",
+    "route",
+    "occu",
+    "seq",
+    "drType",
+]
+
+#: The columns of the HFP analytics API's export (api.view_as_original_hfp_event).
+API_COLUMNS = [
+    "tst",
+    "event_type",
+    "route_id",
+    "direction_id",
+    "operator_id",
+    "oper",
+    "vehicle_number",
+    "transport_mode",
+    "oday",
+    "start",
+    "odo",
+    "spd",
+    "drst",
+    "loc",
+    "stop",
+    "hdg",
+    "long",
+    "lat",
+]
+
+
+def _raw_row(
+    *,
+    owner: int,
+    number: int,
+    second: int,
+    lat: float,
+    lon: float,
+    event: str = "VP",
+    loc: str = "GPS",
+    oper: int | None = None,
+) -> dict[str, object]:
+    tst = f"2023-05-02T07:00:{second:02d}.250Z"
+    return {
+        "tst": tst,
+        "eventType": event,
+        "receivedAt": tst,
+        "topicPrefix": "/hfp/",
+        "topicVersion": "v2",
+        "journeyType": "journey",
+        "isOngoing": "true",
+        "mode": "tram",
+        "ownerOperatorId": owner,
+        "vehicleNumber": number,
+        "uniqueVehicleId": "",
+        "routeId": "1006",
+        "directionId": 1,
+        # a headsign with a comma: the field is quoted
+        "headsign": "Pasila, Rautatieasema",
+        "journeyStartTime": "09:55",
+        "nextStopId": "1020201",
+        "geohashLevel": 4,
+        # the topic's geohash cell: about 100 m off the fix, never the position
+        "topicLatitude": round(lat, 3) + 0.001,
+        "topicLongitude": round(lon, 3) + 0.001,
+        "desi": "6",
+        "dir": 1,
+        "oper": owner if oper is None else oper,
+        "veh": number,
+        "tsi": 1683010800 + second,
+        "spd": 8.2,
+        "hdg": 91,
+        "latitude": lat,
+        "longitude": lon,
+        "acc": 0.1,
+        "dl": -20,
+        "odo": 1000 + 8 * second,
+        "drst": 0,
+        "oday": "2023-05-02",
+        "jrn": 123,
+        "line": 33,
+        "start": "09:55",
+        "locationQualityMethod": loc,
+        "stop": "",
+        "route": "1006",
+        "occu": 0,
+        "seq": 1,
+        "drType": "",
+    }
+
+
+def _write(path: Path, columns, rows) -> Path:
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(columns))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def test_a_raw_dump_is_read_by_its_camel_case_columns(tmp_path):
+    rows = [
+        _raw_row(owner=40, number=412, second=s, lat=60.1699, lon=24.9401 + 1.5e-4 * s)
+        for s in range(5)
+    ]
+    # the same vehicle number at another operator (a bus): another vehicle
+    rows += [_raw_row(owner=22, number=412, second=s, lat=60.2, lon=24.8) for s in range(3)]
+    # a door event, and an estimate of the vehicle's own
+    rows.append(_raw_row(owner=40, number=412, second=6, lat=60.1699, lon=24.9, event="DOO"))
+    rows.append(_raw_row(owner=40, number=412, second=7, lat=60.1699, lon=24.94115, loc="ODO"))
+    log = read_hfp(_write(tmp_path / "dump.csv", RAW_DUMP_COLUMNS, rows))
+    assert not log.problems
+    assert log.ignored == {"HFP DOO event (not a vehicle position)": 1}
+    tram = [r for r in log.reports if r.vehicle_id == "40/412"]
+    bus = [r for r in log.reports if r.vehicle_id == "22/412"]
+    assert (len(tram), len(bus)) == (6, 3)
+    # the fix is latitude/longitude, not the topic's cell
+    assert [r.lat for r in tram[:5]] == [60.1699] * 5
+    assert [r.lon for r in tram[:5]] == pytest.approx([24.9401 + 1.5e-4 * s for s in range(5)])
+    assert tram[0].t == 1683010800.25
+    assert tram[0].odometer_m == 1000.0
+    assert tram[-1].fix_quality == 6  # ODO: the vehicle's own estimate
+
+
+def test_the_owner_names_the_vehicle_when_another_operator_runs_the_trip(tmp_path):
+    # a subcontracted trip: oper is the trip's operator, ownerOperatorId the vehicle's
+    rows = [
+        _raw_row(owner=40, number=7, second=s, lat=60.17, lon=24.94, oper=6 if s > 2 else 40)
+        for s in range(6)
+    ]
+    log = read_hfp(_write(tmp_path / "dump.csv", RAW_DUMP_COLUMNS, rows))
+    assert {r.vehicle_id for r in log.reports} == {"40/7"}
+
+
+def test_the_analytics_export_is_read_with_its_postgres_times(tmp_path):
+    rows = []
+    for s in range(4):
+        # the same instants written in UTC and in Helsinki's summer time
+        tst = f"2023-05-02 07:00:0{s}+00" if s % 2 else f"2023-05-02 10:00:0{s}.5+03"
+        rows.append(
+            {
+                "tst": tst,
+                "event_type": "VP",
+                "route_id": "1006",
+                "direction_id": 1,
+                "operator_id": 40,
+                "oper": 22,  # the trip's operator, not the vehicle's
+                "vehicle_number": 412,
+                "transport_mode": "tram",
+                "oday": "2023-05-02",
+                "start": "09:55:00",
+                "odo": 1234 + 8 * s,
+                "spd": 8.0,
+                "drst": 0,
+                "loc": "GPS",
+                "stop": "",
+                "hdg": 92,
+                "long": 24.9401 + 1.5e-4 * s,
+                "lat": 60.1699,
+            }
+        )
+    log = read_hfp(_write(tmp_path / "export.csv", API_COLUMNS, rows))
+    assert not log.problems
+    assert {r.vehicle_id for r in log.reports} == {"40/412"}
+    assert [r.t - 1683010800 for r in log.reports] == [0.5, 1.0, 2.5, 3.0]
+
+
+def test_a_header_without_a_position_is_refused_by_name(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_text("tst,vehicleNumber,topicLatitude,topicLongitude\n")
+    with pytest.raises(ReplayError, match="lat or latitude"):
+        read_hfp(path)
+
+
+def test_lat_is_preferred_to_latitude_and_an_empty_one_falls_back():
+    both = {"veh": "1", "tst": "2023-05-02T07:00:00Z", "lat": "60.1", "latitude": "61"}
+    assert hfp_fields({**both, "long": "24.9"}, 1, "f").lat == 60.1
+    empty = {**both, "lat": "", "longitude": "25"}
+    rec = hfp_fields(empty, 1, "f")
+    assert (rec.lat, rec.lon) == (61.0, 25.0)
+
+
+_NAME_FORMS = st.sampled_from([str.lower, str.upper, lambda s: s])
+
+
+@given(
+    vehicle=st.sampled_from(["veh", "vehicle_number", "vehicleNumber", "uniqueVehicleId"]),
+    time=st.sampled_from(["tst", "tsi"]),
+    latitude=st.sampled_from(["lat", "latitude", "Latitude"]),
+    other=st.lists(st.sampled_from(["spd", "hdg", "odo", "oper", "topicLatitude"])),
+    form=_NAME_FORMS,
+)
+def test_any_spelling_of_the_fields_is_an_hfp_header(vehicle, time, latitude, other, form):
+    header = [form(vehicle), form(time), form(latitude), *other]
+    assert looks_like_hfp_csv(header)
+    # without a latitude (the topic's cell is not one) it is not
+    assert not looks_like_hfp_csv([h for h in header if h.lower() not in ("lat", "latitude")])
+
+
+@given(lat=st.floats(-89.0, 89.0), lon=st.floats(-179.0, 179.0))
+def test_latitude_and_longitude_are_the_position(lat, lon):
+    rec = hfp_fields(
+        {"vehiclenumber": 3, "tst": "2023-05-02T07:00:00Z", "latitude": lat, "longitude": lon},
+        1,
+        "f",
+    )
+    assert math.isclose(rec.lat, lat) and math.isclose(rec.lon, lon)
+    assert rec.vehicle_id == "3"
