@@ -13,7 +13,7 @@
   :mod:`antikol.ingest.gtfsrt` (GTFS-realtime VehiclePositions, needs the ``feeds``
   extra), sharing :mod:`antikol.ingest.feed_common`;
 * :mod:`antikol.ingest.feeds` — any recorded log, its format recognised; logs and feeds
-  compressed with gzip, bzip2 or xz are read as their content
+  compressed with gzip, bzip2, xz or zstd are read as their content
   (:mod:`antikol.ingest.compressed`);
 * :mod:`antikol.ingest.cam` — reports as ETSI C-ITS CAMs, for units that must speak C-ITS
   (needs the ``cits`` extra, imported on first use).

@@ -13,7 +13,7 @@ format         what it is
 
 :func:`detect_log_format` looks at the suffix and the first bytes; :func:`read_log` reads
 any of them into a :class:`~antikol.ingest.replaylog.ReplayLog`. Every file of any format
-may be compressed with gzip, bzip2 or xz (:mod:`antikol.ingest.compressed`):
+may be compressed with gzip, bzip2, xz or zstd (:mod:`antikol.ingest.compressed`):
 ``positions.csv.gz`` is recognised and read as ``positions.csv``, ``t1.nmea.gz`` as the
 NMEA log of ``t1``.
 """

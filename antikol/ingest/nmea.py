@@ -753,7 +753,7 @@ def read_nmea_directory(
     """Read a directory of NMEA logs, one file per vehicle.
 
     Files whose names end in ``.nmea``, ``.txt`` or ``.log`` (any case) are read, not
-    recursively, each possibly compressed with gzip, bzip2 or xz (``t1.nmea.gz``); each
+    recursively, each possibly compressed with gzip, bzip2, xz or zstd (``t1.nmea.gz``); each
     file's name without its suffixes is the vehicle identifier.
 
     Parameters

@@ -200,7 +200,7 @@ def iter_replay_csv(
     The file is streamed (constant memory) and decoded line by line: a line that is not
     UTF-8, has a quote that does not close, too few fields or a bad value is a
     :class:`RowProblem` with its line number; the lines around it are unaffected. Blank
-    lines yield nothing. A log compressed with gzip, bzip2 or xz is read as its content
+    lines yield nothing. A log compressed with gzip, bzip2, xz or zstd is read as its content
     (:mod:`antikol.ingest.compressed`); one cut short ends in a :class:`RowProblem` after
     its last line.
 
@@ -581,7 +581,7 @@ def read_nmea_logs(path: str | os.PathLike[str]) -> ReplayLog:
     """Read a directory of per-vehicle NMEA logs (``<vehicle_id>.nmea``...) as one log.
 
     Files named ``*.nmea``, ``*.txt`` or ``*.log`` are read (not recursively), each possibly
-    compressed with gzip, bzip2 or xz (``t1.nmea.gz``; a log cut short keeps its sentences
+    compressed with gzip, bzip2, xz or zstd (``t1.nmea.gz``; a log cut short keeps its sentences
     before the cut, and the cut is a problem of the file, also when no sentence came
     before it); each file's name without its suffixes is the vehicle id. An intact file
     in which no line holds an NMEA sentence (no ``$``: a ``README.txt``, notes) is not a
