@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import math
+import tracemalloc
 from pathlib import Path
 
 import pytest
@@ -13,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from antikol.errors import ReplayError
-from antikol.ingest.hfp import hfp_fields, looks_like_hfp_csv, read_hfp
+from antikol.ingest.hfp import MAX_LINE_CHARS, hfp_fields, looks_like_hfp_csv, read_hfp
 
 #: The columns of a raw dump (every message, as HSL's sink writes it).
 RAW_DUMP_COLUMNS = [
@@ -260,3 +261,57 @@ def test_latitude_and_longitude_are_the_position(lat, lon):
     )
     assert math.isclose(rec.lat, lat) and math.isclose(rec.lon, lon)
     assert rec.vehicle_id == "3"
+
+
+def _vp_line(second: int) -> str:
+    return (
+        '{"VP": {"oper": 40, "veh": 7, "tst": "2023-05-02T07:00:'
+        + f"{second:02d}"
+        + '.000Z", "lat": 60.17, "long": 24.94, "spd": 8.0, "hdg": 90, "loc": "GPS"}}'
+    )
+
+
+@pytest.mark.parametrize("ending", ["\n", "\r\n", "\r"])
+def test_a_file_is_read_line_by_line_in_bounded_memory(tmp_path, ending):
+    # 20 MB without a line break between two good lines: one problem, held a piece at a
+    # time (the whole file was held twice over before, as bytes and as text)
+    path = tmp_path / "feed.jsonl"
+    with path.open("w", newline="") as fh:
+        fh.write(_vp_line(0) + ending)
+        fh.write('{"VP": {"x": "' + "y" * 20_000_000 + '"}}' + ending)
+        fh.write(_vp_line(1) + ending)
+    tracemalloc.start()
+    try:
+        log = read_hfp(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 4 << 20, peak
+    assert [r.t - 1683010800 for r in log.reports] == [0.0, 1.0]
+    [problem] = log.problems
+    assert problem.line == 2 and f"a line of {20_000_017:,} characters" in problem.reason
+
+
+def test_a_long_csv_row_is_one_problem_of_its_line(tmp_path):
+    path = tmp_path / "feed.csv"
+    rows = ["veh,oper,tst,lat,long,spd,hdg"]
+    rows += [f"7,40,2023-05-02T07:00:0{s}Z,60.17,24.94,8,90" for s in range(2)]
+    rows.insert(2, "7,40," + "9" * (MAX_LINE_CHARS + 5))
+    path.write_text("\n".join(rows) + "\n")
+    log = read_hfp(path)
+    assert len(log.reports) == 2
+    assert [(p.line, "more than" in p.reason) for p in log.problems] == [(3, True)]
+
+
+def test_a_json_array_on_one_line_is_still_read_whole(tmp_path):
+    # the array form is one JSON text: a compact one is a single line beyond the limit
+    import json
+
+    messages = [json.loads(_vp_line(s % 60)) for s in range(2000)]
+    for k, message in enumerate(messages):
+        message["VP"]["veh"] = k // 60
+    path = tmp_path / "feed.json"
+    path.write_text(json.dumps(messages, separators=(",", ":")))
+    assert path.stat().st_size > MAX_LINE_CHARS
+    log = read_hfp(path)
+    assert not log.problems and len(log.reports) == 2000

@@ -84,8 +84,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Final, NamedTuple
 
-from antikol.errors import ReplayError
-from antikol.ingest.compressed import logical_suffix, read_input
+from antikol.errors import InputFileError, ReplayError
+from antikol.ingest.compressed import logical_suffix, open_input, read_head, stream_problem
 from antikol.ingest.feed_common import (
     FeedCollector,
     FeedRecord,
@@ -96,6 +96,7 @@ from antikol.ingest.replaylog import ReplayLog
 
 __all__ = [
     "HFP_EVENT",
+    "MAX_LINE_CHARS",
     "HfpRecordError",
     "hfp_fields",
     "hfp_record",
@@ -383,12 +384,38 @@ class _Message(NamedTuple):
     vehicle_id: str | None = None  # from the MQTT topic, if any
 
 
-def _lines(text: str) -> Iterator[tuple[int, str]]:
-    """The numbered lines of ``text``, ended by LF, CR LF or CR: not by the other line
-    breaks of ``str.splitlines`` (U+2028, U+0085...), which a JSON string or a CSV field
-    may hold as they are (a JSON text has a CR or an LF as white space only)."""
-    for number, line in enumerate(io.StringIO(text, newline=None), start=1):
-        yield number, line.rstrip("\n")
+#: A line is one message or one CSV row: HSL's are under 2 kB. A longer one is a problem
+#: of its own, read past in bounded memory (a file without line breaks is not held whole).
+MAX_LINE_CHARS: Final = 1 << 16
+
+_Line = tuple[int, "str | HfpRecordError"]
+
+
+def _lines(text: io.TextIOBase) -> Iterator[_Line]:
+    """The numbered lines of a text stream opened with ``newline=None`` (ended by LF,
+    CR LF or CR: not by the other line breaks of ``str.splitlines``, U+2028, U+0085...,
+    which a JSON string or a CSV field may hold as they are), without their ending; a line
+    of more than :data:`MAX_LINE_CHARS` characters is a problem in its place."""
+    number = 0
+    while True:
+        line = text.readline(MAX_LINE_CHARS + 1)
+        if not line:
+            return
+        number += 1
+        if len(line) <= MAX_LINE_CHARS or line.endswith("\n"):
+            yield number, line.rstrip("\n")
+            continue
+        length = len(line)
+        while line and not line.endswith("\n"):  # the rest of the line, a piece at a time
+            line = text.readline(MAX_LINE_CHARS)
+            length += len(line)
+        length -= line.endswith("\n")  # (its ending is no character of the line)
+        yield (
+            number,
+            HfpRecordError(
+                f"a line of {length:,} characters (more than {MAX_LINE_CHARS:,}: not a record)"
+            ),
+        )
 
 
 def _unreadable(exc: ValueError | RecursionError) -> HfpRecordError:
@@ -458,12 +485,12 @@ def _array_messages(text: str) -> Iterator[_Message]:
         number += 1
 
 
-def _json_messages(text: str) -> Iterator[_Message]:
-    """The messages of a JSON HFP file."""
-    if text.lstrip().startswith("["):
-        yield from _array_messages(text)
-        return
-    for number, line in _lines(text):
+def _json_messages(lines: Iterable[_Line]) -> Iterator[_Message]:
+    """The messages of a JSON-lines HFP file (or an MQTT dump)."""
+    for number, line in lines:
+        if isinstance(line, HfpRecordError):
+            yield _Message(number, line)
+            continue
         body = line.strip()
         if not body:
             continue
@@ -505,11 +532,13 @@ def looks_like_hfp_csv(header: Iterable[str]) -> bool:
     )
 
 
-def _csv_rows(text: str) -> Iterator[tuple[int, list[str] | HfpRecordError]]:
+def _csv_rows(lines: Iterable[_Line]) -> Iterator[tuple[int, list[str] | HfpRecordError]]:
     """The fields of each line: an HFP record never spans lines, so a quote left open is
     a problem of its own line, not a field running on through the rest of the file."""
-    for number, line in _lines(text):
-        if '"' not in line:  # (what csv makes of a line without quotes, only faster)
+    for number, line in lines:
+        if isinstance(line, HfpRecordError):
+            yield number, line
+        elif '"' not in line:  # (what csv makes of a line without quotes, only faster)
             yield number, line.split(",")
         elif _CSV_LINE.fullmatch(line) is None:
             yield number, HfpRecordError("unreadable row: a quote out of place or left open")
@@ -520,8 +549,8 @@ def _csv_rows(text: str) -> Iterator[tuple[int, list[str] | HfpRecordError]]:
                 yield number, HfpRecordError(f"unreadable row: {exc}")
 
 
-def _csv_records(text: str, path: Path) -> Iterator[_Message]:
-    rows = _csv_rows(text)
+def _csv_records(lines: Iterable[_Line], path: Path) -> Iterator[_Message]:
+    rows = _csv_rows(lines)
     first = next(rows, None)
     if first is None:
         raise ReplayError(f"{path}: empty file (expected an HFP header line)")
@@ -561,7 +590,7 @@ def read_hfp(
     ----------
     path : path-like
         ``.csv`` files (or files whose first line names the HFP fields) are read as CSV,
-        anything else as JSON; either may be compressed with gzip, bzip2 or xz
+        anything else as JSON; either may be compressed with gzip, bzip2, xz or zstd
         (:mod:`antikol.ingest.compressed`: ``.csv.gz`` is read as CSV).
     strict : bool
         Raise :class:`~antikol.errors.ReplayError` at the first bad record.
@@ -587,32 +616,78 @@ def read_hfp(
     """
     factor = speed_unit_factor(speed_unit)
     p = Path(path)
-    decoded = read_input(p, what="HFP log")
     # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
     # rejected if the byte is in a field it needs, the rest of the file is read as usual
-    text = decoded.data.decode("utf-8-sig", errors="surrogateescape")
-    first = text.lstrip().split("\n", 1)[0]
+    head = read_head(p, _SNIFF_BYTES, what="HFP log")
+    first = head.decode("utf-8-sig", errors="surrogateescape").lstrip().split("\n", 1)[0]
     is_csv = logical_suffix(p) == ".csv" or (
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
     )
-    messages = _csv_records(text, p) if is_csv else _json_messages(text)
     out = FeedCollector(str(p), strict=strict, speed_factor=factor)
-    if decoded.problem is not None:  # the records before the cut are read all the same
-        out.problem(0, str(p), decoded.problem)
     records: list[FeedRecord] = []
-    for number, message, vehicle_id in messages:
-        if isinstance(message, Exception):
-            out.problem(number, str(p), str(message))
-            continue
-        try:
-            rec = hfp_record(message, number, str(p), vehicle_id=vehicle_id)
-        except HfpRecordError as exc:
-            out.problem(number, str(p), str(exc))
-            continue
-        if isinstance(rec, str):
-            out.ignore(f"HFP {rec} event (not a vehicle position)")
+    with (
+        open_input(p, what="HFP log") as stream,
+        io.TextIOWrapper(
+            stream, encoding="utf-8-sig", errors="surrogateescape", newline=None
+        ) as text,
+    ):
+        if is_csv:
+            messages = _csv_records(_lines(text), p)
+        elif first.startswith("["):  # an array is one JSON text: read whole
+            messages = _array_messages(_read_all(text, p))
         else:
-            records.append(rec)
+            messages = _json_messages(_lines(text))
+        try:
+            last = _collect(messages, p, out, records)
+        except OSError as exc:
+            raise InputFileError(f"{p}: cannot read the HFP log: {exc.strerror or exc}") from exc
+        cut = stream_problem(stream)
+    if cut is not None:
+        if not head:
+            raise InputFileError(f"{p}: cannot read the HFP log: {cut}")
+        out.problem(0, str(p), cut)  # the records before the cut are read all the same
+    if last is not None:
+        out.problem(last[0], str(p), last[1])
     for rec in sorted(records, key=lambda r: r.t):
         out.add(rec)
     return out.log()
+
+
+#: Bytes of a file's start read to tell its form (CSV or JSON, lines or an array).
+_SNIFF_BYTES: Final = 1 << 16
+
+
+def _read_all(text: io.TextIOBase, path: Path) -> str:
+    try:
+        return text.read()
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot read the HFP log: {exc.strerror or exc}") from exc
+
+
+def _collect(
+    messages: Iterable[_Message], path: Path, out: FeedCollector, records: list[FeedRecord]
+) -> tuple[int, str] | None:
+    """Each message's vehicle-position record into ``records``; problems and other events
+    counted in ``out``, but for the last problem, returned: when the file is cut, the
+    message at the cut is read after the cut is known (and strict mode names the cut)."""
+    source = str(path)
+    held: tuple[int, str] | None = None
+    for number, message, vehicle_id in messages:
+        problem: tuple[int, str] | None = None
+        if isinstance(message, Exception):
+            problem = (number, str(message))
+        else:
+            try:
+                rec = hfp_record(message, number, source, vehicle_id=vehicle_id)
+            except HfpRecordError as exc:
+                problem = (number, str(exc))
+            else:
+                if isinstance(rec, str):
+                    out.ignore(f"HFP {rec} event (not a vehicle position)")
+                else:
+                    records.append(rec)
+        if problem is not None:
+            if held is not None:
+                out.problem(held[0], source, held[1])
+            held = problem
+    return held
