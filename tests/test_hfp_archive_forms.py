@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from antikol.errors import ReplayError
+from antikol.errors import InvalidArgumentError, ReplayError
 from antikol.ingest.hfp import MAX_LINE_CHARS, hfp_fields, looks_like_hfp_csv, read_hfp
 
 #: The columns of a raw dump (every message, as HSL's sink writes it).
@@ -315,3 +315,64 @@ def test_a_json_array_on_one_line_is_still_read_whole(tmp_path):
     assert path.stat().st_size > MAX_LINE_CHARS
     log = read_hfp(path)
     assert not log.problems and len(log.reports) == 2000
+
+
+def _dump_with_buses(tmp_path: Path) -> Path:
+    rows = [
+        {**_raw_row(owner=40, number=412, second=s, lat=60.17, lon=24.94 + 1.5e-4 * s)}
+        for s in range(4)
+    ]
+    bus = [_raw_row(owner=22, number=412, second=s, lat=60.2, lon=24.8) for s in range(3)]
+    for row in bus:
+        row["mode"] = "bus"
+    # a bus record the reader would refuse: skipped unread, not counted as a problem
+    bus[1]["latitude"] = "not a number"
+    return _write(tmp_path / "dump.csv", RAW_DUMP_COLUMNS, rows + bus)
+
+
+def test_modes_read_only_the_trams_of_a_raw_dump(tmp_path):
+    path = _dump_with_buses(tmp_path)
+    every = read_hfp(path)
+    assert {r.vehicle_id for r in every.reports} == {"40/412", "22/412"}
+    assert len(every.problems) == 1
+    trams = read_hfp(path, modes=["TRAM"])
+    assert {r.vehicle_id for r in trams.reports} == {"40/412"}
+    assert not trams.problems
+    assert trams.ignored == {"HFP bus record (not a mode read)": 3}
+    assert read_hfp(path, modes="tram").reports == trams.reports
+
+
+def test_modes_come_from_the_mqtt_topic(tmp_path):
+    lines = []
+    for mode, owner in (("tram", "0040"), ("bus", "0022")):
+        topic = f"/hfp/v2/journey/ongoing/vp/{mode}/{owner}/00412/1006/1/Pasila/09:55/1/60;24"
+        lines += [f"{topic} {_vp_line(s)}" for s in range(3)]
+    # a message without a topic names no mode: it is read
+    lines.append(_vp_line(5).replace('"veh": 7', '"veh": 8'))
+    path = tmp_path / "dump.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    log = read_hfp(path, modes={"tram"})
+    assert sorted({r.vehicle_id for r in log.reports}) == ["40/412", "40/8"]
+    assert log.ignored == {"HFP bus record (not a mode read)": 3}
+
+
+@pytest.mark.parametrize("modes", [[], [""], [3], 3])
+def test_modes_must_name_modes(tmp_path, modes):
+    path = _dump_with_buses(tmp_path)
+    with pytest.raises(InvalidArgumentError, match="modes"):
+        read_hfp(path, modes=modes)
+
+
+def test_hfp_mode_on_the_command_line(tmp_path, capsys):
+    from antikol.cli import main
+
+    path = _dump_with_buses(tmp_path)
+    out = tmp_path / "events.csv"
+    assert main(["replay", str(path), "--map", "none", "--hfp-mode", "tram", "-o", str(out)]) == 0
+    shown = capsys.readouterr()
+    assert "replayed 4 reports (hfp) of 1 vehicles" in shown.out
+    assert "ignored 3 record(s): HFP bus record (not a mode read)" in shown.out + shown.err
+    csv_path = tmp_path / "log.csv"
+    csv_path.write_text("vehicle_id,t,lat,lon,speed_mps,course_deg\nA,0,50,19,1,0\n")
+    assert main(["replay", str(csv_path), "--map", "none", "--hfp-mode", "tram"]) != 0
+    assert "--hfp-mode is for HFP logs" in capsys.readouterr().err

@@ -29,6 +29,7 @@ __all__ = [
     "EXIT_OK",
     "SHOWN_PROBLEMS",
     "ProblemPrinter",
+    "add_hfp_mode_option",
     "add_map_option",
     "add_speed_unit_option",
     "load_map",
@@ -50,6 +51,25 @@ def add_speed_unit_option(p: argparse.ArgumentParser) -> None:
         help="unit of the speed field of an HFP or GTFS-realtime log (default m/s, as their "
         "specifications say; some GTFS-realtime producers send km/h)",
     )
+
+
+def add_hfp_mode_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--hfp-mode`` (the transport modes read from an HFP log)."""
+    p.add_argument(
+        "--hfp-mode",
+        type=_mode_list,
+        default=None,
+        metavar="MODE[,MODE...]",
+        help="read only these transport modes of an HFP log (e.g. tram; from the MQTT topic "
+        "or the archive's mode column): HSL's raw dumps hold every bus and ferry too",
+    )
+
+
+def _mode_list(text: str) -> tuple[str, ...]:
+    modes = tuple(m.strip().lower() for m in text.split(",") if m.strip())
+    if not modes:
+        raise argparse.ArgumentTypeError(f"no mode in {text!r}")
+    return modes
 
 
 def add_map_option(p: argparse.ArgumentParser, *, default: str | None) -> None:

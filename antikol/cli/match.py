@@ -24,6 +24,7 @@ from typing import Any
 
 from antikol.cli.common import (
     ProblemPrinter,
+    add_hfp_mode_option,
     add_map_option,
     add_speed_unit_option,
     load_map,
@@ -122,6 +123,7 @@ def add_parser(sub: Any) -> None:
     )
     m.add_argument("--strict", action="store_true", help="stop at the first bad record")
     add_speed_unit_option(m)
+    add_hfp_mode_option(m)
     m.add_argument(
         "--rejects",
         type=Path,
@@ -149,7 +151,11 @@ def _match(args: argparse.Namespace) -> int:
     problems = ProblemPrinter(args.rejects)
     try:
         log = read_log(
-            args.log, log_format=args.log_format, strict=args.strict, speed_unit=args.speed_unit
+            args.log,
+            log_format=args.log_format,
+            strict=args.strict,
+            speed_unit=args.speed_unit,
+            hfp_modes=args.hfp_mode,
         )
         for problem in log.problems:
             problems(problem)

@@ -16,6 +16,7 @@ from typing import Any
 
 from antikol.cli.common import (
     ProblemPrinter,
+    add_hfp_mode_option,
     add_map_option,
     add_speed_unit_option,
     load_map,
@@ -63,6 +64,7 @@ def add_parser(sub: Any) -> None:
     )
     r.add_argument("--strict", action="store_true", help="stop at the first bad row")
     add_speed_unit_option(r)
+    add_hfp_mode_option(r)
     r.add_argument(
         "--html",
         type=Path,
@@ -98,6 +100,9 @@ def _replay(args: argparse.Namespace) -> int:
     from antikol.ingest.replaylog import ReplayLog, scan_replay_csv
 
     if args.fleet is not None:
+        # (the fleet's partitions are read as they are: m/s, every mode)
+        if args.speed_unit != "m/s" or args.hfp_mode is not None:
+            raise UsageError("--speed-unit and --hfp-mode are not read with --fleet DIR")
         return run_fleet(args)
     if args.scheduler is not None or args.no_dask:
         raise UsageError("--scheduler and --no-dask need --fleet DIR")
@@ -109,6 +114,8 @@ def _replay(args: argparse.Namespace) -> int:
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
     if args.speed_unit != "m/s" and fmt not in ("hfp", "gtfs-rt"):
         raise UsageError(f"--speed-unit is for HFP and GTFS-realtime logs; {args.log} is {fmt}")
+    if args.hfp_mode is not None and fmt != "hfp":
+        raise UsageError(f"--hfp-mode is for HFP logs; {args.log} is {fmt}")
     problems = ProblemPrinter(args.rejects)
     log: ReplayLog | StreamedLog
     try:
@@ -116,7 +123,13 @@ def _replay(args: argparse.Namespace) -> int:
             scan = scan_replay_csv(args.log, strict=args.strict, on_problem=problems)
             log, usable = StreamedLog(args.log, scan), scan.valid
         else:
-            log = read_log(args.log, log_format=fmt, strict=args.strict, speed_unit=args.speed_unit)
+            log = read_log(
+                args.log,
+                log_format=fmt,
+                strict=args.strict,
+                speed_unit=args.speed_unit,
+                hfp_modes=args.hfp_mode,
+            )
             for problem in log.problems:
                 problems(problem)
             usable = len(log.reports)

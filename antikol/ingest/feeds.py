@@ -21,6 +21,7 @@ NMEA log of ``t1``.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Final, Literal
 
@@ -110,6 +111,7 @@ def read_log(
     log_format: str = "auto",
     strict: bool = False,
     speed_unit: str = "m/s",
+    hfp_modes: Iterable[str] | None = None,
 ) -> ReplayLog:
     """Read a recorded log of any supported format.
 
@@ -123,6 +125,9 @@ def read_log(
     speed_unit : {"m/s", "km/h", "kn", "mph"}
         Unit of the speed field of an HFP or GTFS-realtime log (a replay CSV's is m/s by
         its column's name, NMEA's by its sentences).
+    hfp_modes : iterable of str, optional
+        Transport modes read from an HFP log (``{"tram"}``: :func:`~antikol.ingest.hfp.read_hfp`'s
+        ``modes``); None reads every mode.
 
     Returns
     -------
@@ -133,7 +138,8 @@ def read_log(
     ValueError
         An unknown format name.
     InvalidArgumentError
-        An unknown ``speed_unit``, or one other than m/s for a log whose unit is fixed.
+        An unknown ``speed_unit``, or one other than m/s for a log whose unit is fixed;
+        ``hfp_modes`` for a log that is not HFP.
     InputFileError, ReplayError
         As the format's reader raises them.
     """
@@ -142,12 +148,14 @@ def read_log(
         raise InvalidArgumentError(
             "speed_unit", speed_unit, f"a {fmt} log's speeds are in m/s or say their unit"
         )
+    if hfp_modes is not None and fmt != "hfp":
+        raise InvalidArgumentError("hfp_modes", hfp_modes, f"{path} is a {fmt} log, not HFP")
     if fmt == "csv":
         return read_replay_csv(path, strict=strict)
     if fmt == "nmea":
         return read_nmea_logs(path)
     if fmt == "hfp":
-        return read_hfp(path, strict=strict, speed_unit=speed_unit)
+        return read_hfp(path, strict=strict, speed_unit=speed_unit, modes=hfp_modes)
     if fmt == "gtfs-rt":
         return read_gtfs_realtime(path, strict=strict, speed_unit=speed_unit)
     raise ValueError(

@@ -84,7 +84,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Final, NamedTuple
 
-from antikol.errors import InputFileError, ReplayError
+from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
 from antikol.ingest.compressed import logical_suffix, open_input, read_head, stream_problem
 from antikol.ingest.feed_common import (
     FeedCollector,
@@ -102,6 +102,7 @@ __all__ = [
     "hfp_record",
     "looks_like_hfp_csv",
     "read_hfp",
+    "topic_mode",
     "topic_vehicle_id",
 ]
 
@@ -144,6 +145,7 @@ _OWNER_OPERATOR: Final = (
 _LATITUDE: Final = ("lat", "latitude")
 _LONGITUDE: Final = ("long", "lon", "longitude")
 _LOCATION_SOURCE: Final = ("loc", "locationqualitymethod", "location_quality_method")
+_MODE: Final = ("mode", "transport_mode", "transportmode")
 
 
 class HfpRecordError(ValueError):
@@ -273,6 +275,19 @@ def _vehicle_id(fields: Mapping[str, Any]) -> str:
     return _owned_id(owner if owner is not None else _id_text(fields, "oper"), veh)
 
 
+def _topic_operator_place(parts: list[str]) -> int | None:
+    """Where the operator stands in a topic's parts (the mode just before it), or None."""
+    try:
+        at = parts.index("hfp")
+    except ValueError:
+        return None
+    version = parts[at + 1] if len(parts) > at + 1 else ""
+    first = {"v1": at + 5, "v2": at + 6}.get(version)
+    if first is None or len(parts) <= first + 1:
+        return None
+    return first
+
+
 def topic_vehicle_id(topic: str) -> str | None:
     """The vehicle id (``"<owner operator>/<vehicle number>"``) in an HFP MQTT topic.
 
@@ -291,18 +306,26 @@ def topic_vehicle_id(topic: str) -> str | None:
     '18/423'
     """
     parts = topic.strip().split("/")
-    try:
-        at = parts.index("hfp")
-    except ValueError:
-        return None
-    version = parts[at + 1] if len(parts) > at + 1 else ""
-    first = {"v1": at + 5, "v2": at + 6}.get(version)  # the operator's place
-    if first is None or len(parts) <= first + 1:
+    first = _topic_operator_place(parts)
+    if first is None:
         return None
     operator, vehicle = _plain(parts[first]), _plain(parts[first + 1])
     if not (operator and vehicle) or "+" in (operator, vehicle):
         return None
     return _owned_id(operator, vehicle)
+
+
+def topic_mode(topic: str) -> str | None:
+    """The transport mode in an HFP MQTT topic, in lower case (``tram``, ``bus``,
+    ``metro``...), or None for a topic of another form.
+
+    >>> topic_mode("/hfp/v2/journey/ongoing/vp/tram/0040/00412/1006/1/Pasila")
+    'tram'
+    """
+    parts = topic.strip().split("/")
+    first = _topic_operator_place(parts)
+    mode = parts[first - 1].strip().lower() if first is not None else ""
+    return mode if mode and mode != "+" else None
 
 
 def hfp_fields(
@@ -382,6 +405,7 @@ class _Message(NamedTuple):
     number: int  # line or record number
     body: Any  # the decoded message, or the error decoding it
     vehicle_id: str | None = None  # from the MQTT topic, if any
+    mode: str | None = None  # the transport mode, from the MQTT topic, if any
 
 
 #: A line is one message or one CSV row: HSL's are under 2 kB. A longer one is a problem
@@ -494,19 +518,19 @@ def _json_messages(lines: Iterable[_Line]) -> Iterator[_Message]:
         body = line.strip()
         if not body:
             continue
-        vehicle_id = None
+        vehicle_id = mode = None
         if not body.startswith("{") and " " in body:  # an MQTT dump line: topic payload
             # (a topic may hold spaces, in the headsign: the payload starts at the brace)
             brace = body.find(" {")
             topic, body = (body[:brace], body[brace:]) if brace > 0 else body.split(" ", 1)
             body = body.strip()
-            vehicle_id = topic_vehicle_id(topic)
+            vehicle_id, mode = topic_vehicle_id(topic), topic_mode(topic)
         try:
             message = json.loads(body)
         except (ValueError, RecursionError) as exc:  # (JSONDecodeError is a ValueError)
             yield _Message(number, _unreadable(exc))
         else:
-            yield _Message(number, message, vehicle_id)
+            yield _Message(number, message, vehicle_id, mode)
 
 
 #: Header names of a vehicle's identity in the CSV archive forms (lower case).
@@ -582,7 +606,11 @@ def _csv_records(lines: Iterable[_Line], path: Path) -> Iterator[_Message]:
 
 
 def read_hfp(
-    path: str | os.PathLike[str], *, strict: bool = False, speed_unit: str = "m/s"
+    path: str | os.PathLike[str],
+    *,
+    strict: bool = False,
+    speed_unit: str = "m/s",
+    modes: Iterable[str] | None = None,
 ) -> ReplayLog:
     """Read an HFP log: JSON lines, a JSON array of messages, or the CSV archive form.
 
@@ -597,6 +625,11 @@ def read_hfp(
     speed_unit : {"m/s", "km/h", "kn", "mph"}, keyword-only
         Unit of the speed field (default m/s, as the specification says;
         :data:`~antikol.ingest.feed_common.SPEED_UNITS`).
+    modes : iterable of str, optional, keyword-only
+        Transport modes to read (``{"tram"}``; any case), from the MQTT topic or the
+        archive's ``mode`` (``transport_mode``) column: records of other modes are counted
+        as ignored, unread (HSL's raw dumps hold every bus, metro and ferry as well). A
+        record that names no mode is read. None (default): every mode.
 
     Returns
     -------
@@ -608,13 +641,14 @@ def read_hfp(
     Raises
     ------
     InvalidArgumentError
-        An unknown ``speed_unit``.
+        An unknown ``speed_unit``, or ``modes`` not a collection of non-empty strings.
     InputFileError
         The file is missing or unreadable (or compressed and damaged from its start).
     ReplayError
         A CSV header without the HFP fields, or a bad record in strict mode.
     """
     factor = speed_unit_factor(speed_unit)
+    wanted = _modes(modes)
     p = Path(path)
     # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
     # rejected if the byte is in a field it needs, the rest of the file is read as usual
@@ -638,7 +672,7 @@ def read_hfp(
         else:
             messages = _json_messages(_lines(text))
         try:
-            last = _collect(messages, p, out, records)
+            last = _collect(messages, p, out, records, wanted)
         except OSError as exc:
             raise InputFileError(f"{p}: cannot read the HFP log: {exc.strerror or exc}") from exc
         cut = stream_problem(stream)
@@ -653,6 +687,20 @@ def read_hfp(
     return out.log()
 
 
+def _modes(modes: Iterable[str] | None) -> frozenset[str] | None:
+    if modes is None:
+        return None
+    if isinstance(modes, str):  # ("tram" would be the modes t, r, a and m)
+        modes = (modes,)
+    try:
+        given = list(modes)
+    except TypeError:
+        raise InvalidArgumentError("modes", modes, "not a collection of mode names") from None
+    if not given or not all(isinstance(m, str) and m.strip() for m in given):
+        raise InvalidArgumentError("modes", modes, "not a collection of mode names")
+    return frozenset(m.strip().lower() for m in given)
+
+
 #: Bytes of a file's start read to tell its form (CSV or JSON, lines or an array).
 _SNIFF_BYTES: Final = 1 << 16
 
@@ -664,18 +712,40 @@ def _read_all(text: io.TextIOBase, path: Path) -> str:
         raise InputFileError(f"{path}: cannot read the HFP log: {exc.strerror or exc}") from exc
 
 
+def _message_mode(message: Any, topic_mode: str | None) -> str | None:
+    """A message's transport mode, in lower case: its topic's, else its payload's
+    (``mode``, ``transport_mode``); None when it says none."""
+    if topic_mode is not None:
+        return topic_mode
+    if isinstance(message, dict) and len(message) == 1:
+        payload = next(iter(message.values()))
+        if isinstance(payload, dict):
+            for name in _MODE:
+                value = payload.get(name)
+                if isinstance(value, str) and value.strip():
+                    return value.strip().lower()
+    return None
+
+
 def _collect(
-    messages: Iterable[_Message], path: Path, out: FeedCollector, records: list[FeedRecord]
+    messages: Iterable[_Message],
+    path: Path,
+    out: FeedCollector,
+    records: list[FeedRecord],
+    modes: frozenset[str] | None,
 ) -> tuple[int, str] | None:
     """Each message's vehicle-position record into ``records``; problems and other events
     counted in ``out``, but for the last problem, returned: when the file is cut, the
     message at the cut is read after the cut is known (and strict mode names the cut)."""
     source = str(path)
     held: tuple[int, str] | None = None
-    for number, message, vehicle_id in messages:
+    for number, message, vehicle_id, topic_mode in messages:
         problem: tuple[int, str] | None = None
+        mode = None if modes is None else _message_mode(message, topic_mode)
         if isinstance(message, Exception):
             problem = (number, str(message))
+        elif mode is not None and mode not in (modes or ()):  # (before any field is read)
+            out.ignore(f"HFP {mode} record (not a mode read)")
         else:
             try:
                 rec = hfp_record(message, number, source, vehicle_id=vehicle_id)
