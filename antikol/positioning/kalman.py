@@ -197,10 +197,13 @@ def track_estimate(
         Position (m), speed (m/s) and their standard deviations.
     """
     dt = np.maximum(np.asarray(t, dtype=float) - st.t[idx], 0.0)
-    qss, _, qvv = _q(dt, accel_sigma)
-    s = st.s[idx] + dt * st.v[idx]
-    pss = st.pss[idx] + 2.0 * dt * st.psv[idx] + dt * dt * st.pvv[idx] + qss
-    pvv = st.pvv[idx] + qvv
+    # a time absurdly far ahead (1e200 s) overflows to an infinite variance, which is the
+    # answer (the caller reports such a position lost), not a warning
+    with np.errstate(over="ignore", invalid="ignore"):
+        qss, _, qvv = _q(dt, accel_sigma)
+        s = st.s[idx] + dt * st.v[idx]
+        pss = st.pss[idx] + 2.0 * dt * st.psv[idx] + dt * dt * st.pvv[idx] + qss
+        pvv = st.pvv[idx] + qvv
     return s, np.maximum(st.v[idx], 0.0), np.sqrt(np.maximum(pss, 0.0)), np.sqrt(pvv)
 
 
