@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from antikol.errors import InvalidArgumentError, ReplayError
+from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
 from antikol.ingest.hfp import MAX_LINE_CHARS, hfp_fields, looks_like_hfp_csv, read_hfp
 
 #: The columns of a raw dump (every message, as HSL's sink writes it).
@@ -376,3 +376,39 @@ def test_hfp_mode_on_the_command_line(tmp_path, capsys):
     csv_path.write_text("vehicle_id,t,lat,lon,speed_mps,course_deg\nA,0,50,19,1,0\n")
     assert main(["replay", str(csv_path), "--map", "none", "--hfp-mode", "tram"]) != 0
     assert "--hfp-mode is for HFP logs" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["x.csv.gz", "x.jsonl.gz"])
+def test_a_compressed_file_damaged_from_its_start_is_an_input_error(tmp_path, name):
+    path = tmp_path / name
+    path.write_bytes(b"\x1f\x8b")  # a gzip magic number and nothing more
+    with pytest.raises(InputFileError, match="gzip stream ends early") as refused:
+        read_hfp(path)
+    assert str(refused.value).count("cannot read") == 1
+
+
+def test_strict_mode_names_the_cut_before_a_bad_record(tmp_path):
+    import gzip
+
+    lines = ["not json", *(_vp_line(s) for s in range(40))]
+    packed = gzip.compress(("\n".join(lines) + "\n").encode())
+    path = tmp_path / "feed.jsonl.gz"
+    path.write_bytes(packed[:-30])
+    with pytest.raises(ReplayError, match=r":0: the gzip stream ends early"):
+        read_hfp(path, strict=True)
+    log = read_hfp(path)
+    assert [p.line for p in log.problems][:2] == [0, 1]
+    path.write_bytes(packed)  # whole: the bad record is the error
+    with pytest.raises(ReplayError, match=r":1: unreadable JSON"):
+        read_hfp(path, strict=True)
+
+
+@pytest.mark.parametrize("blank", ["\n", " ", "\r\n\t"])
+def test_a_json_array_after_much_white_space_is_still_an_array(tmp_path, blank):
+    import json
+
+    messages = [json.loads(_vp_line(s)) for s in range(3)]
+    path = tmp_path / "feed.json"
+    path.write_text(blank * 70_000 + json.dumps(messages))
+    log = read_hfp(path)
+    assert not log.problems and len(log.reports) == 3

@@ -85,7 +85,7 @@ from pathlib import Path
 from typing import Any, Final, NamedTuple
 
 from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
-from antikol.ingest.compressed import logical_suffix, open_input, read_head, stream_problem
+from antikol.ingest.compressed import logical_suffix, open_input, stream_problem
 from antikol.ingest.feed_common import (
     FeedCollector,
     FeedRecord,
@@ -650,41 +650,83 @@ def read_hfp(
     factor = speed_unit_factor(speed_unit)
     wanted = _modes(modes)
     p = Path(path)
-    # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
-    # rejected if the byte is in a field it needs, the rest of the file is read as usual
-    head = read_head(p, _SNIFF_BYTES, what="HFP log")
-    first = head.decode("utf-8-sig", errors="surrogateescape").lstrip().split("\n", 1)[0]
+    first = _first_line(p)
     is_csv = logical_suffix(p) == ".csv" or (
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
     )
     out = FeedCollector(str(p), strict=strict, speed_factor=factor)
     records: list[FeedRecord] = []
+    # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
+    # rejected if the byte is in a field it needs, the rest of the file is read as usual
     with (
         open_input(p, what="HFP log") as stream,
         io.TextIOWrapper(
             stream, encoding="utf-8-sig", errors="surrogateescape", newline=None
         ) as text,
     ):
-        if is_csv:
-            messages = _csv_records(_lines(text), p)
-        elif first.startswith("["):  # an array is one JSON text: read whole
-            messages = _array_messages(_read_all(text, p))
-        else:
-            messages = _json_messages(_lines(text))
         try:
-            last = _collect(messages, p, out, records, wanted)
+            if is_csv:
+                messages = _csv_records(_lines(text), p)
+            elif first.startswith("["):  # an array is one JSON text: read whole
+                messages = _array_messages(text.read())
+            else:
+                messages = _json_messages(_lines(text))
+            try:
+                _collect(messages, p, out, records, wanted)
+            except ReplayError:
+                if not strict:  # (a CSV header without the HFP fields)
+                    raise
+                # a record cut short may be the cut's doing: the file's problem comes first
+                while text.read(_SNIFF_BYTES):
+                    pass
+                cut = stream_problem(stream)
+                if cut is not None:
+                    out.problem(0, str(p), cut)
+                raise
+        except InputFileError:
+            raise
         except OSError as exc:
             raise InputFileError(f"{p}: cannot read the HFP log: {exc.strerror or exc}") from exc
         cut = stream_problem(stream)
-    if cut is not None:
-        if not head:
-            raise InputFileError(f"{p}: cannot read the HFP log: {cut}")
-        out.problem(0, str(p), cut)  # the records before the cut are read all the same
-    if last is not None:
-        out.problem(last[0], str(p), last[1])
+    if cut is not None:  # the records before the cut are read all the same
+        out.problem(0, str(p), cut)
     for rec in sorted(records, key=lambda r: r.t):
         out.add(rec)
     return out.log()
+
+
+#: Bytes of a file's first line read to tell its form (CSV or JSON, lines or an array).
+_SNIFF_BYTES: Final = 1 << 16
+
+
+def _decoded(data: bytes) -> str:
+    return data.decode("utf-8", errors="surrogateescape")
+
+
+def _first_line(path: Path) -> str:
+    """The start (up to :data:`_SNIFF_BYTES`) of the first line of a file's content that
+    is not blank, "" when it has none.
+
+    Raises
+    ------
+    InputFileError
+        The file is missing or unreadable, or compressed and damaged from its start.
+    """
+    with open_input(path, what="HFP log") as stream:
+        try:
+            chunk = stream.read(_SNIFF_BYTES)
+            cut = None if chunk else stream_problem(stream)
+            text = _decoded(chunk).removeprefix("\ufeff")
+            while text and not text.lstrip():  # white space, however much of it
+                text = _decoded(stream.read(_SNIFF_BYTES))
+            text = text.lstrip()
+            if "\n" not in text and "\r" not in text:
+                text += _decoded(stream.read(_SNIFF_BYTES))
+        except OSError as exc:
+            raise InputFileError(f"{path}: cannot read the HFP log: {exc.strerror or exc}") from exc
+    if cut is not None:
+        raise InputFileError(f"{path}: cannot read the HFP log: {cut}")
+    return text.replace("\r", "\n").split("\n", 1)[0]
 
 
 def _modes(modes: Iterable[str] | None) -> frozenset[str] | None:
@@ -699,17 +741,6 @@ def _modes(modes: Iterable[str] | None) -> frozenset[str] | None:
     if not given or not all(isinstance(m, str) and m.strip() for m in given):
         raise InvalidArgumentError("modes", modes, "not a collection of mode names")
     return frozenset(m.strip().lower() for m in given)
-
-
-#: Bytes of a file's start read to tell its form (CSV or JSON, lines or an array).
-_SNIFF_BYTES: Final = 1 << 16
-
-
-def _read_all(text: io.TextIOBase, path: Path) -> str:
-    try:
-        return text.read()
-    except OSError as exc:
-        raise InputFileError(f"{path}: cannot read the HFP log: {exc.strerror or exc}") from exc
 
 
 def _message_mode(message: Any, topic_mode: str | None) -> str | None:
@@ -733,31 +764,23 @@ def _collect(
     out: FeedCollector,
     records: list[FeedRecord],
     modes: frozenset[str] | None,
-) -> tuple[int, str] | None:
+) -> None:
     """Each message's vehicle-position record into ``records``; problems and other events
-    counted in ``out``, but for the last problem, returned: when the file is cut, the
-    message at the cut is read after the cut is known (and strict mode names the cut)."""
+    counted in ``out``."""
     source = str(path)
-    held: tuple[int, str] | None = None
     for number, message, vehicle_id, topic_mode in messages:
-        problem: tuple[int, str] | None = None
         mode = None if modes is None else _message_mode(message, topic_mode)
         if isinstance(message, Exception):
-            problem = (number, str(message))
+            out.problem(number, source, str(message))
         elif mode is not None and mode not in (modes or ()):  # (before any field is read)
             out.ignore(f"HFP {mode} record (not a mode read)")
         else:
             try:
                 rec = hfp_record(message, number, source, vehicle_id=vehicle_id)
             except HfpRecordError as exc:
-                problem = (number, str(exc))
+                out.problem(number, source, str(exc))
             else:
                 if isinstance(rec, str):
                     out.ignore(f"HFP {rec} event (not a vehicle position)")
                 else:
                     records.append(rec)
-        if problem is not None:
-            if held is not None:
-                out.problem(held[0], source, held[1])
-            held = problem
-    return held
