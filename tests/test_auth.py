@@ -34,6 +34,7 @@ from antikol.ingest.protocol import (
     encode_report,
 )
 from antikol.report import VehicleReport
+from tests._memory import traced_peak
 
 KEY = bytes(range(32))
 R = VehicleReport("T1", 100.0, 50.06306, 19.93260, 8.0, 90.0, length_m=32.0, odometer_m=1234.5)
@@ -476,12 +477,7 @@ def test_receiver_without_verifier_survives_huge_sequence_jumps() -> None:
         encode_report(rep(0, now + i * 1e-3, vid="X"), seq=i * (2**31 - 1) % 2**32)
         for i in range(30)
     )
-    tracemalloc.start()
-    try:
-        accepted = rx.receive(datagram, now=now)
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    accepted, peak = traced_peak(lambda: rx.receive(datagram, now=now))
     assert len(accepted) == 30
     assert rx.guard._senders["X"].bitmap.bit_length() <= rx.guard.seq_window
     assert peak < 4 * 1024 * 1024

@@ -11,7 +11,6 @@ import random
 import shutil
 import subprocess
 import sys
-import tracemalloc
 from types import ModuleType
 
 import pytest
@@ -32,6 +31,7 @@ from antikol.ingest.compressed import (
     stream_problem,
 )
 from antikol.ingest.hfp import read_hfp
+from tests._memory import traced_peak
 
 
 def _zstd() -> ModuleType | None:
@@ -360,12 +360,7 @@ def test_an_xz_stream_declaring_a_huge_dictionary_is_refused_not_allocated(
 ):
     path = tmp_path / "log.csv.xz"
     path.write_bytes(lzma.compress(b"T0,0\n") + huge_dictionary)
-    tracemalloc.start()
-    try:
-        got = read_input(path)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    got, peak = traced_peak(lambda: read_input(path))
     assert got.data == b"T0,0\n" and got.compression == "xz"
     assert got.problem is not None and "memory" in got.problem and "lost" in got.problem
     assert peak < 64 << 20  # not the 1.5 GiB the header asks for

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import csv
 import math
-import tracemalloc
 from pathlib import Path
 
 import pytest
@@ -15,6 +14,7 @@ from hypothesis import strategies as st
 
 from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
 from antikol.ingest.hfp import MAX_LINE_CHARS, hfp_fields, looks_like_hfp_csv, read_hfp
+from tests._memory import traced_peak
 
 #: The columns of a raw dump (every message, as HSL's sink writes it).
 RAW_DUMP_COLUMNS = [
@@ -280,12 +280,7 @@ def test_a_file_is_read_line_by_line_in_bounded_memory(tmp_path, ending):
         fh.write(_vp_line(0) + ending)
         fh.write('{"VP": {"x": "' + "y" * 20_000_000 + '"}}' + ending)
         fh.write(_vp_line(1) + ending)
-    tracemalloc.start()
-    try:
-        log = read_hfp(path)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    log, peak = traced_peak(lambda: read_hfp(path))
     assert peak < 4 << 20, peak
     assert [r.t - 1683010800 for r in log.reports] == [0.0, 1.0]
     [problem] = log.problems

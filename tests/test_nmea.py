@@ -6,8 +6,8 @@ import io
 import logging
 import math
 import re
-import tracemalloc
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 
 import pytest
@@ -22,6 +22,7 @@ from antikol.ingest.nmea_fields import MAX_LINE_BYTES, log_lines
 from antikol.ingest.nmea_spec import KNOT_MPS
 from antikol.ingest.nmea_writer import format_gga, format_rmc, format_vtg
 from antikol.report import VehicleReport
+from tests._memory import traced_peak
 
 # Textbook sentences with their original checksums.
 CLASSIC_RMC = "$GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W*6A"
@@ -835,12 +836,7 @@ def test_an_over_long_line_is_one_problem_and_never_held(tmp_path: Path) -> None
         path = tmp_path / "t1.nmea"
         head, tail = rmc("120000").encode(), rmc("120001").encode()
         path.write_bytes(newline.join([head, long, tail, long]))  # the last one unended
-        tracemalloc.start()
-        try:
-            reports, stats = read_nmea_file(path)
-            peak = tracemalloc.get_traced_memory()[1]
-        finally:
-            tracemalloc.stop()
+        (reports, stats), peak = traced_peak(partial(read_nmea_file, path))
         assert peak < 2 << 20, peak
         assert [r.t for r in reports] == [utc(2024, 3, 15, 12, 0, s) for s in (0, 1)]
         assert stats.lines == 4 and stats.skipped == {"too_long": 2}
