@@ -9,7 +9,8 @@
 * :mod:`antikol.ingest.replaylog` — recorded logs in the project's one CSV format (its
   only reader and writer);
 * operator feeds: :mod:`antikol.ingest.hfp` (HSL-style high-frequency positioning, JSON or
-  CSV; :mod:`antikol.ingest.hfp_writer` writes its JSON lines) and
+  CSV: :mod:`antikol.ingest.hfp_text` reads a file's forms, :mod:`antikol.ingest.hfp_messages`
+  each message; :mod:`antikol.ingest.hfp_writer` writes its JSON lines) and
   :mod:`antikol.ingest.gtfsrt` (GTFS-realtime VehiclePositions, needs the ``feeds``
   extra), sharing :mod:`antikol.ingest.feed_common`;
 * :mod:`antikol.ingest.feeds` — any recorded log, its format recognised; logs and feeds
