@@ -407,3 +407,37 @@ def test_a_json_array_after_much_white_space_is_still_an_array(tmp_path, blank):
     path.write_text(blank * 70_000 + json.dumps(messages))
     log = read_hfp(path)
     assert not log.problems and len(log.reports) == 3
+
+
+def test_an_mqtt_dump_with_the_time_of_reception_before_the_topic(tmp_path: Path) -> None:
+    # HSL's dumps of the MQTT stream write `<received at> <topic> <payload>`; the topic's
+    # headsign may hold spaces and brackets
+    topic = (
+        "/hfp/v2/journey/ongoing/vp/{mode}/{oper}/{veh}/1004/2/Munkkiniemi (K)/15:56/1/4"
+        "/60;24/17/63/84"
+    )
+    payload = (
+        '{{"VP":{{"desi":"4","oper":{trip_oper},"veh":{short},"tst":"2023-10-23T13:42:{s:02d}.7Z",'
+        '"spd":8.5,"hdg":156,"lat":60.1687,"long":24.9344,"odo":{odo},"loc":"GPS"}}}}'
+    )
+    lines = []
+    for s in range(3):
+        received = f"2023-10-23T13:42:{s:02d}.794243Z"
+        tram = topic.format(mode="tram", oper="0040", veh="00412")
+        bus = topic.format(mode="bus", oper="0018", veh="00412")
+        lines.append(f"{received} {tram} " + payload.format(trip_oper=6, short=412, s=s, odo=s * 8))
+        lines.append(f"{received} {bus} " + payload.format(trip_oper=18, short=412, s=s, odo=s))
+    path = tmp_path / "dump.txt"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+    log = read_hfp(path, modes={"tram"})
+    assert not log.problems
+    # the vehicle is the topic's owner and number, not the trip's operator (oper 6)
+    assert [(r.vehicle_id, r.odometer_m) for r in log.reports] == [
+        ("40/412", 0.0),
+        ("40/412", 8.0),
+        ("40/412", 16.0),
+    ]
+    assert sum(log.ignored.values()) == 3
+    everyone = read_hfp(path)
+    assert sorted({r.vehicle_id for r in everyone.reports}) == ["18/412", "40/412"]

@@ -52,6 +52,8 @@ _JSON_TOKEN: Final = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[][{},]')
 
 
 class Message(NamedTuple):
+    """One message of an HFP file, in file order."""
+
     number: int  # line or record number
     body: Any  # the decoded message, or the error decoding it
     vehicle_id: str | None = None  # from the MQTT topic, if any
@@ -62,14 +64,27 @@ class Message(NamedTuple):
 #: of its own, read past in bounded memory (a file without line breaks is not held whole).
 MAX_LINE_CHARS: Final = 1 << 16
 
+#: A numbered line, or the problem that stands in its place.
 Line = tuple[int, "str | HfpRecordError"]
 
 
 def numbered_lines(text: io.TextIOBase) -> Iterator[Line]:
-    """The numbered lines of a text stream opened with ``newline=None`` (ended by LF,
-    CR LF or CR: not by the other line breaks of ``str.splitlines``, U+2028, U+0085...,
-    which a JSON string or a CSV field may hold as they are), without their ending; a line
-    of more than :data:`MAX_LINE_CHARS` characters is a problem in its place."""
+    """The numbered lines of a text stream, read in bounded memory.
+
+    Parameters
+    ----------
+    text : io.TextIOBase
+        Opened with ``newline=None``: lines end at LF, CR LF or CR, not at the other line
+        breaks of ``str.splitlines`` (U+2028, U+0085...), which a JSON string or a CSV
+        field may hold as they are.
+
+    Yields
+    ------
+    Line
+        ``(number, line)`` from 1, the line without its ending; a line of more than
+        :data:`MAX_LINE_CHARS` characters is an :class:`HfpRecordError` in its place,
+        read past a piece at a time.
+    """
     number = 0
     while True:
         line = text.readline(MAX_LINE_CHARS + 1)
@@ -160,7 +175,14 @@ def array_messages(text: str) -> Iterator[Message]:
 
 
 def json_messages(lines: Iterable[Line]) -> Iterator[Message]:
-    """The messages of a JSON-lines HFP file (or an MQTT dump)."""
+    """The messages of a JSON-lines HFP file, one per line that is not blank.
+
+    A line may also be an MQTT dump line, ``[<received at>] <topic> <payload>``
+    (``mosquitto_sub -v``, HSL's dumps): the vehicle id and the transport mode then come
+    from the topic (:func:`~antikol.ingest.hfp_messages.topic_vehicle_id`,
+    :func:`~antikol.ingest.hfp_messages.topic_mode`). A line that is no JSON text is a
+    message whose body is the problem.
+    """
     for number, line in lines:
         if isinstance(line, HfpRecordError):
             yield Message(number, line)
@@ -220,6 +242,19 @@ def _csv_rows(lines: Iterable[Line]) -> Iterator[tuple[int, list[str] | HfpRecor
 
 
 def csv_messages(lines: Iterable[Line], path: Path) -> Iterator[Message]:
+    """The messages of an HFP CSV archive: its header, then one message per row.
+
+    Each row is a message ``{event: {column: text}}`` keyed by the column names in lower
+    case; the event is the row's ``event_type`` (``eventType``), ``VP`` where the archive
+    has no such column. Blank rows are skipped; a row that cannot be read, or that has
+    another number of fields than the header, is a message whose body is the problem.
+
+    Raises
+    ------
+    ReplayError
+        The file is empty, or its header is unreadable or does not name the HFP fields
+        (:func:`looks_like_hfp_csv`); ``path`` is the file, for the message.
+    """
     rows = _csv_rows(lines)
     first = next(rows, None)
     if first is None:
@@ -261,7 +296,8 @@ def _decoded(data: bytes) -> str:
 
 def first_line(path: Path) -> str:
     """The start (up to :data:`SNIFF_BYTES`) of the first line of a file's content that
-    is not blank, "" when it has none.
+    is not blank, "" when it has none: what tells CSV from JSON, and JSON lines from an
+    array. A compressed file is read as its content.
 
     Raises
     ------
