@@ -13,6 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
+from antikol.ingest import detect_log_format, read_log
 from antikol.ingest.hfp import MAX_LINE_CHARS, hfp_fields, looks_like_hfp_csv, read_hfp
 from tests._memory import traced_peak
 
@@ -441,3 +442,6 @@ def test_an_mqtt_dump_with_the_time_of_reception_before_the_topic(tmp_path: Path
     assert sum(log.ignored.values()) == 3
     everyone = read_hfp(path)
     assert sorted({r.vehicle_id for r in everyone.reports}) == ["18/412", "40/412"]
+    # and such a file is told an HFP log by its first line, whatever its name
+    assert detect_log_format(path) == "hfp"
+    assert read_log(path, hfp_modes={"tram"}).reports == log.reports

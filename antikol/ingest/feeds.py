@@ -21,6 +21,7 @@ NMEA log of ``t1``.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Final, Literal
@@ -43,6 +44,10 @@ LogFormat = Literal["csv", "nmea", "hfp", "gtfs-rt"]
 #: The formats :func:`read_log` reads.
 LOG_FORMATS: Final[tuple[LogFormat, ...]] = ("csv", "nmea", "hfp", "gtfs-rt")
 _JSON_SUFFIXES: Final = (".json", ".jsonl", ".ndjson", ".hfp")
+
+
+#: An MQTT dump line with the time of reception before the topic (HSL's dumps).
+_TIMED_MQTT_LINE: Final = re.compile(r"[^\s/]+\s+/hfp/")
 
 
 def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
@@ -95,7 +100,7 @@ def detect_log_format(path: str | os.PathLike[str]) -> LogFormat:
     except UnicodeDecodeError:
         if suffix != ".csv":
             return "gtfs-rt"  # binary: a protobuf message
-    if first.startswith(("{", "[", "/hfp")):
+    if first.startswith(("{", "[", "/hfp")) or _TIMED_MQTT_LINE.match(first):
         return "hfp"
     if suffix == ".csv":
         return "csv"  # let the replay reader say what is wrong with the header
