@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 
@@ -276,6 +277,7 @@ def test_antikol_match_on_an_hfp_log(kraków_run, tmp_path, capsys):
     )
     captured = capsys.readouterr()
     assert "hfp.jsonl:6: tsi='soon' is not a number" in captured.err
+    assert "outside the map" not in captured.err
     assert f"matched {len(result.reports):,} reports of 4 vehicle(s)" in captured.out
     assert "(1 record(s) rejected)" in captured.out
     assert "running the reported course's way" in captured.out
@@ -302,6 +304,31 @@ def test_antikol_match_on_an_hfp_log(kraków_run, tmp_path, capsys):
     assert document["total"]["reports"] == len(result.reports)
     assert sorted(document["vehicles"]) == ["40/1", "40/2", "40/3", "40/4"]
     assert sum(v["reports"] for v in document["vehicles"].values()) == len(result.reports)
+
+
+def test_a_log_of_another_city_is_named_as_off_the_map(kraków_run, tmp_path, capsys):
+    """The log of a tram in Helsinki matched on the default map (``--map`` forgotten) is
+    not just a count of unmatched reports: both commands say the fixes lie off the map."""
+    _, result = kraków_run
+    log = tmp_path / "helsinki.jsonl"
+    moved = [
+        dataclasses.replace(r, lat=r.lat + 10.1, lon=r.lon + 5.0)
+        for r in result.reports
+        if r.fix_quality != 0
+    ]
+    log.write_text("\n".join(_hfp_line(r) for r in moved) + "\n", encoding="utf-8")
+    assert main(["match", str(log), "-o", str(tmp_path / "positions.csv")]) == 0
+    captured = capsys.readouterr()
+    assert f"{len(moved):,} of {len(moved):,} fixes lie more than 2 km outside the map" in (
+        captured.err
+    )
+    assert "--map" in captured.err
+    # the log has odometer readings, but nothing was matched to compare them with
+    assert "odometer: none in the log" not in captured.out
+    assert "odometer: in the log, but" in captured.out
+    events = tmp_path / "events.csv"
+    assert main(["replay", str(log), "--map", "default", "-o", str(events)]) == 0
+    assert "outside the map 'default'" in capsys.readouterr().err
 
 
 def test_antikol_match_says_what_is_wrong(tmp_path, capsys):

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -35,6 +37,7 @@ __all__ = [
     "load_map",
     "non_negative_float",
     "non_negative_int",
+    "off_map_warning",
     "positive_float",
     "positive_int",
 ]
@@ -96,6 +99,63 @@ def load_map(name: str | None) -> Any:
     from trackmap.named import load_named
 
     return load_named(name)
+
+
+#: A fix this far outside the map's extent is on none of its tracks, m.
+OFF_MAP_M = 2_000.0
+#: Fixes of a log looked at to tell whether it belongs to the map (its first ones).
+_OFF_MAP_SAMPLE = 20_000
+
+
+def off_map_warning(net: Any, reports: Iterable[Any], *, map_name: str | None) -> str | None:
+    """A warning when most fixes of a log lie far outside the map, None otherwise.
+
+    A log of another city matched on the embedded Kraków map (``--map`` forgotten) is
+    otherwise only a count of unmatched reports.
+
+    Parameters
+    ----------
+    net : trackmap.TrackMap
+    reports : iterable of VehicleReport
+        The log's reports; the first 20,000 with a fix are looked at.
+    map_name : str or None
+        The ``--map`` value, for the message.
+
+    Returns
+    -------
+    str or None
+        The warning when more than half of those fixes lie more than :data:`OFF_MAP_M`
+        outside the bounding box of the map's tracks.
+    """
+    import numpy as np
+    import shapely
+
+    fixes = itertools.islice((r for r in reports if r.fix_quality != 0), _OFF_MAP_SAMPLE)
+    lonlat = np.array([(r.lon, r.lat) for r in fixes], dtype=float).reshape(-1, 2)
+    if not len(lonlat) or not net.edges:
+        return None
+    with np.errstate(all="ignore"):
+        x, y = net.to_local(lonlat[:, 0], lonlat[:, 1])
+    min_x, min_y, max_x, max_y = shapely.total_bounds([e.geometry for e in net.edges])
+    near = (
+        np.isfinite(x)
+        & np.isfinite(y)
+        & (x >= min_x - OFF_MAP_M)
+        & (x <= max_x + OFF_MAP_M)
+        & (y >= min_y - OFF_MAP_M)
+        & (y <= max_y + OFF_MAP_M)
+    )
+    outside = int(np.count_nonzero(~near))
+    if 2 * outside <= len(near):
+        return None
+    west, south = net.to_lonlat(min_x, min_y)
+    east, north = net.to_lonlat(max_x, max_y)
+    return (
+        f"warning: {outside:,} of {len(near):,} fixes lie more than {OFF_MAP_M / 1000:g} km "
+        f"outside the map {map_name!r} (latitude {south:.3f} to {north:.3f}, longitude "
+        f"{west:.3f} to {east:.3f}): is it the log's map? ('default' is Kraków; build one "
+        "with trackmap build and give it with --map)"
+    )
 
 
 #: Bad records printed on stderr before the rest are only counted.

@@ -28,6 +28,7 @@ from antikol.cli.common import (
     add_map_option,
     add_speed_unit_option,
     load_map,
+    off_map_warning,
     positive_float,
 )
 from antikol.errors import InputFileError, UsageError
@@ -166,6 +167,9 @@ def _match(args: argparse.Namespace) -> int:
     if not log.reports:
         raise UsageError(f"{args.log}: no usable report in the log")
     net = load_map(args.map)
+    off_map = off_map_warning(net, log.reports, map_name=args.map)
+    if off_map is not None:
+        print(off_map, file=sys.stderr)
     fixes = match_reports(net, log.reports, cycle_s=args.cycle)
     later = in_hindsight(net, fixes)
 
@@ -188,7 +192,8 @@ def _match(args: argparse.Namespace) -> int:
         f"({rejected:,} record(s) rejected): confident {total.confident:,}, "
         f"ambiguous {total.ambiguous:,}, lost {total.lost:,}, unmatched {total.unmatched:,}"
     )
-    for line in _summary(total):
+    has_odometer = any(r.odometer_m is not None for r in log.reports)
+    for line in _summary(total, has_odometer=has_odometer):
         print(line)
     for line in _where_broken(total.breaks):
         print(line)
@@ -224,7 +229,7 @@ def _percent(share: float) -> str:
     return "n/a" if math.isnan(share) else f"{100.0 * share:.2f} %"
 
 
-def _summary(c: Any, *, short: bool = False) -> list[str]:
+def _summary(c: Any, *, short: bool = False, has_odometer: bool = False) -> list[str]:
     """The checks' lines; ``short``: only the positions' own (way, windows), the feed's
     (course, odometer) being the same."""
     from antikol.evaluation.consistency import COURSE_OFF_DEG
@@ -266,6 +271,11 @@ def _summary(c: Any, *, short: bool = False) -> list[str]:
                 "counting in coarse units); theirs are compared from one new reading to the "
                 "next, each as late as a report after its change"
             )
+    elif has_odometer:
+        lines.append(
+            "odometer: in the log, but no two successive reports of a vehicle were matched "
+            "with a reading each, nothing to compare"
+        )
     else:
         lines.append("odometer: none in the log")
     return lines

@@ -20,6 +20,7 @@ from antikol.cli.common import (
     add_map_option,
     add_speed_unit_option,
     load_map,
+    off_map_warning,
     positive_float,
 )
 from antikol.cli.fleet import add_fleet_options, run_fleet
@@ -141,6 +142,10 @@ def _replay(args: argparse.Namespace) -> int:
     if not usable:
         raise UsageError(f"{args.log}: no usable report in the {fmt} log")
     net = load_map(args.map)
+    if net is not None:
+        off_map = off_map_warning(net, log.reports, map_name=args.map)
+        if off_map is not None:
+            print(off_map, file=sys.stderr)
     analyser = Analyser(track_map=net)
     recorder = None
     if args.html is not None:
