@@ -133,3 +133,37 @@ def test_antikol_internal_error_exits_3(files, monkeypatch, capsys):
     assert antikol_main(argv) == 3
     err = capsys.readouterr().err
     assert "antikol replay: internal error: KeyError" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("program", ["antikol", "trackmap"])
+def test_a_reader_that_leaves_early_ends_only_the_printing(files, program):
+    """``antikol match LOG | head -1``: the reader's pipe closes while the command prints;
+    the command still writes its files and ends with its own status, without a word of
+    a broken pipe (before: status 2, 'error: [Errno 32] Broken pipe', no --json file)."""
+    import subprocess
+    import sys
+
+    tmp = files["tmp"]
+    if program == "antikol":
+        rows = "".join(f"T{k % 3},{k // 3},50.06,{19.94 + 1e-5 * k},5,90\n" for k in range(300))
+        files["log"].write_text("vehicle_id,t,lat,lon,speed_mps,course_deg\n" + rows)
+        written = tmp / "checks.json"
+        args = ["match", str(files["log"]), "-o", str(tmp / "p.csv"), "--json", str(written)]
+    else:
+        written = tmp / "built.trackmap.geojson"
+        args = ["build", str(files["src"]), "-o", str(written)]
+    code = (
+        "import os, sys, time\n"
+        "r, w = os.pipe()\n"
+        "os.close(r)\n"  # the reader is gone before a line is printed
+        "os.dup2(w, 1)\n"
+        f"from {program}.cli import main\n"
+        "sys.stdout = os.fdopen(1, 'w')\n"
+        f"raise SystemExit(main({args!r}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert written.exists()
+    assert "Broken pipe" not in done.stderr and "BrokenPipeError" not in done.stderr

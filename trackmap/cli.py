@@ -11,19 +11,26 @@ Exit status
      report it (``-vv`` prints the traceback)
 130  interrupted (Ctrl-C)
 ===  ======================================================================================
+
+A reader that leaves early (``trackmap check MAP | head``) ends only the printing: the
+command finishes, and its status is as above.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import logging
 import math
+import os
 import sys
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any, TextIO
 
 from trackmap.builder import build
 from trackmap.check import check
@@ -41,6 +48,7 @@ __all__ = [
     "non_negative_int",
     "positive_float",
     "positive_int",
+    "quiet_when_reader_leaves",
 ]
 
 EXIT_OK = 0
@@ -158,8 +166,63 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+class _ReaderMayLeave:
+    """Standard output that goes quiet when its reader leaves (a pipe into ``head``)."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self._stream = stream
+        self.reader_left = False
+
+    def write(self, text: str) -> int:
+        if not self.reader_left:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._leave()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.reader_left:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._leave()
+
+    def _leave(self) -> None:
+        self.reader_left = True
+        # what the stream still holds goes nowhere, not into an error at exit
+        with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            try:
+                os.dup2(devnull, self._stream.fileno())
+            finally:
+                os.close(devnull)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def quiet_when_reader_leaves() -> Iterator[None]:
+    """Run a command whose printing ends, quietly, when its reader leaves: the rest of
+    the command (its files) runs as usual."""
+    saved = sys.stdout
+    sys.stdout = _ReaderMayLeave(saved)
+    try:
+        yield
+    finally:
+        if isinstance(sys.stdout, _ReaderMayLeave):
+            sys.stdout.flush()
+            sys.stdout = saved
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``trackmap`` command; returns the exit status (module notes)."""
+    with quiet_when_reader_leaves():
+        return _run(argv)
+
+
+def _run(argv: Sequence[str] | None) -> int:
     args = _parser().parse_args(argv)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")

@@ -19,7 +19,9 @@ Exit status
 130  interrupted (Ctrl-C)
 ===  ======================================================================================
 
-Status 1 ("findings") is ``trackmap check``'s; no antikol command uses it.
+Status 1 ("findings") is ``trackmap check``'s; no antikol command uses it. A reader that
+leaves early (``antikol match LOG | head``) ends only the printing: the command finishes
+its files, and its status is as above.
 """
 
 from __future__ import annotations
@@ -60,6 +62,13 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``antikol`` command; returns the exit status (module notes)."""
+    from trackmap.cli import quiet_when_reader_leaves
+
+    with quiet_when_reader_leaves():
+        return _run(argv)
+
+
+def _run(argv: Sequence[str] | None) -> int:
     from trackmap.errors import TrackMapError
 
     args = _parser().parse_args(argv)
