@@ -5,6 +5,7 @@ export (``operator_id``, PostgreSQL times)."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 from pathlib import Path
 
@@ -445,3 +446,22 @@ def test_an_mqtt_dump_with_the_time_of_reception_before_the_topic(tmp_path: Path
     # and such a file is told an HFP log by its first line, whatever its name
     assert detect_log_format(path) == "hfp"
     assert read_log(path, hfp_modes={"tram"}).reports == log.reports
+
+
+def test_two_records_of_a_vehicle_at_one_time_with_other_positions(tmp_path: Path) -> None:
+    """An exact repeat is ignored and counted; a second record at the same time with
+    another position (one of the two is wrong, which is unknown) is a problem of its own
+    line, so that the analyst finds it: before, both were 'repeated record time'."""
+    lines = []
+    for s, lat in [(0, 60.1700), (1, 60.1701), (1, 60.1701), (1, 60.1801), (2, 60.1702)]:
+        fields = {"oper": 40, "veh": 412, "tst": f"2023-10-23T13:42:0{s}Z", "lat": lat}
+        fields |= {"long": 24.9344, "spd": 8.5, "hdg": 0, "loc": "GPS"}
+        lines.append(json.dumps({"VP": fields}))
+    path = tmp_path / "twice.jsonl"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    log = read_hfp(path)
+    assert [r.lat for r in log.reports] == [60.17, 60.1701, 60.1702]
+    assert log.ignored == {"repeated record time of a vehicle": 1}
+    assert [(p.line, p.kept) for p in log.problems] == [(4, False)]
+    assert "another position" in log.problems[0].reason
+    assert "60.1801" in log.problems[0].reason

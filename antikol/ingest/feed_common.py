@@ -152,6 +152,19 @@ class _Fix(NamedTuple):
     lon: float
 
 
+#: Two positions of a vehicle closer than this are the same one, degrees (about 0.1 m).
+_SAME_POSITION_DEG = 1e-6
+
+
+def _moved(last: _Last, rec: FeedRecord) -> bool:
+    """Whether a record gives another position than the vehicle's last one."""
+    if rec.lat is None or rec.lon is None:
+        return False
+    return (
+        abs(rec.lat - last.lat) > _SAME_POSITION_DEG or abs(rec.lon - last.lon) > _SAME_POSITION_DEG
+    )
+
+
 @dataclass
 class _Last:
     t: float
@@ -271,7 +284,15 @@ class FeedCollector:
             return
         last = self._last.get(rec.vehicle_id)
         if last is not None and rec.t == last.t:
-            self.ignore("repeated record time of a vehicle")
+            if _moved(last, rec):  # two records disagree: which one is right is unknown
+                self.problem(
+                    rec.record,
+                    rec.source,
+                    f"a second record of the vehicle at t={rec.t!r} with another position "
+                    f"({rec.lat!r}, {rec.lon!r}; the first one is kept)",
+                )
+            else:
+                self.ignore("repeated record time of a vehicle")
             return
         if last is not None and rec.t < last.t:
             self.problem(
