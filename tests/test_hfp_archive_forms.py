@@ -465,3 +465,23 @@ def test_two_records_of_a_vehicle_at_one_time_with_other_positions(tmp_path: Pat
     assert [(p.line, p.kept) for p in log.problems] == [(4, False)]
     assert "another position" in log.problems[0].reason
     assert "60.1801" in log.problems[0].reason
+
+
+def test_a_position_of_zeros_is_no_fix(tmp_path: Path) -> None:
+    """Feeds write lat 0, long 0 for a receiver without a fix; read as a fix it put the
+    tram 5,000 km away, taken as a good fix and counted as such (an end-to-end review)."""
+    lines = []
+    for s, lat, lon in [(0, 60.17, 24.9344), (1, 0, 0), (2, 60.1702, 24.9344)]:
+        fields = {"oper": 40, "veh": 412, "tst": f"2023-10-23T13:42:0{s}Z", "lat": lat}
+        fields |= {"long": lon, "spd": 8.5, "hdg": 0, "odo": 100 + 8 * s, "loc": "GPS"}
+        lines.append(json.dumps({"VP": fields}))
+    path = tmp_path / "zeros.jsonl"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    log = read_hfp(path)
+    assert [(r.lat, r.fix_quality, r.odometer_m) for r in log.reports] == [
+        (60.17, 1, 100.0),
+        (60.17, 0, 108.0),  # the last known position, without a fix
+        (60.1702, 1, 116.0),
+    ]
+    assert [(p.line, p.kept) for p in log.problems] == [(2, True)]
+    assert "0, 0 is no fix" in log.problems[0].reason

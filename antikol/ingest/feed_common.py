@@ -313,6 +313,15 @@ class FeedCollector:
                 kept=True,
             )
         has_pos = rec.lat is not None and rec.lon is not None
+        if has_pos and rec.lat == 0.0 and rec.lon == 0.0:
+            # a receiver without a fix writing zeros, not a tram in the Gulf of Guinea
+            self.problem(
+                rec.record,
+                rec.source,
+                "position 0, 0 is no fix: passed on as a report without one",
+                kept=True,
+            )
+            has_pos = False
         fix = rec.has_fix and has_pos
         if has_pos:
             lat, lon = float(rec.lat), float(rec.lon)  # type: ignore[arg-type]
