@@ -308,7 +308,10 @@ def test_a_feed_in_km_h_is_read_with_its_speed_unit(simulated, tmp_path, capsys)
     with pytest.raises(InvalidArgumentError, match="csv log"):
         read_log(csv_log, speed_unit="km/h")
     assert main(["match", str(csv_log), "--speed-unit", "km/h"]) == 2
-    assert "a csv log's speeds are in m/s" in capsys.readouterr().err
+    assert "--speed-unit is for HFP and GTFS-realtime logs" in capsys.readouterr().err
+    # (--hfp-mode likewise, in the option's own name rather than the API's hfp_modes)
+    assert main(["match", str(csv_log), "--hfp-mode", "tram"]) == 2
+    assert "--hfp-mode is for HFP logs; " in capsys.readouterr().err
 
 
 def test_hfp_vehicles_are_keyed_by_their_owner_not_the_trip_operator(simulated, tmp_path):

@@ -351,6 +351,11 @@ def test_modes_come_from_the_mqtt_topic(tmp_path):
     log = read_hfp(path, modes={"tram"})
     assert sorted({r.vehicle_id for r in log.reports}) == ["40/412", "40/8"]
     assert log.ignored == {"HFP bus record (not a mode read)": 3}
+    # ... and the analyst is told, once for the file (a log naming no mode at all is read
+    # whole, whatever --hfp-mode says)
+    assert [(p.line, p.kept) for p in log.problems] == [(0, True)]
+    assert "1 record(s) name no transport mode" in log.problems[0].reason
+    assert not read_hfp(path).problems
 
 
 @pytest.mark.parametrize("modes", [[], [""], [3], 3])

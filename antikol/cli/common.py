@@ -34,6 +34,7 @@ __all__ = [
     "add_hfp_mode_option",
     "add_map_option",
     "add_speed_unit_option",
+    "check_feed_options",
     "load_map",
     "non_negative_float",
     "non_negative_int",
@@ -66,6 +67,24 @@ def add_hfp_mode_option(p: argparse.ArgumentParser) -> None:
         help="read only these transport modes of an HFP log (e.g. tram; from the MQTT topic "
         "or the archive's mode column): HSL's raw dumps hold every bus and ferry too",
     )
+
+
+def check_feed_options(args: argparse.Namespace, log_format: str) -> None:
+    """Refuse ``--speed-unit`` and ``--hfp-mode`` for a log whose format has no use for them.
+
+    Raises
+    ------
+    UsageError
+        Either option given for a log of another format (the message names the log).
+    """
+    from antikol.errors import UsageError
+
+    if args.speed_unit != "m/s" and log_format not in ("hfp", "gtfs-rt"):
+        raise UsageError(
+            f"--speed-unit is for HFP and GTFS-realtime logs; {args.log} is {log_format}"
+        )
+    if args.hfp_mode is not None and log_format != "hfp":
+        raise UsageError(f"--hfp-mode is for HFP logs; {args.log} is {log_format}")
 
 
 def _mode_list(text: str) -> tuple[str, ...]:

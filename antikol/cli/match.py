@@ -27,6 +27,7 @@ from antikol.cli.common import (
     add_hfp_mode_option,
     add_map_option,
     add_speed_unit_option,
+    check_feed_options,
     load_map,
     off_map_warning,
     positive_float,
@@ -142,10 +143,12 @@ def _match(args: argparse.Namespace) -> int:
         match_reports,
         trace_consistency,
     )
-    from antikol.ingest.feeds import read_log
+    from antikol.ingest.feeds import detect_log_format, read_log
 
     if args.map is None or args.map == "none":
         raise UsageError("matching needs a track map: --map FILE or --map default")
+    fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
+    check_feed_options(args, fmt)
     for out in (args.positions, args.json):
         if out is not None and not out.parent.is_dir():
             raise InputFileError(f"{out}: cannot write: no directory {out.parent}")
@@ -153,7 +156,7 @@ def _match(args: argparse.Namespace) -> int:
     try:
         log = read_log(
             args.log,
-            log_format=args.log_format,
+            log_format=fmt,
             strict=args.strict,
             speed_unit=args.speed_unit,
             hfp_modes=args.hfp_mode,

@@ -19,6 +19,7 @@ from antikol.cli.common import (
     add_hfp_mode_option,
     add_map_option,
     add_speed_unit_option,
+    check_feed_options,
     load_map,
     off_map_warning,
     positive_float,
@@ -113,10 +114,7 @@ def _replay(args: argparse.Namespace) -> int:
         raise UsageError("Parquet archives are replayed with --fleet DIR")
     args.log = args.log[0]
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
-    if args.speed_unit != "m/s" and fmt not in ("hfp", "gtfs-rt"):
-        raise UsageError(f"--speed-unit is for HFP and GTFS-realtime logs; {args.log} is {fmt}")
-    if args.hfp_mode is not None and fmt != "hfp":
-        raise UsageError(f"--hfp-mode is for HFP logs; {args.log} is {fmt}")
+    check_feed_options(args, fmt)
     problems = ProblemPrinter(args.rejects)
     log: ReplayLog | StreamedLog
     try:

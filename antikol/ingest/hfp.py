@@ -186,7 +186,7 @@ def read_hfp(
             else:
                 messages = json_messages(numbered_lines(text))
             try:
-                _collect(messages, p, out, records, wanted)
+                unnamed = _collect(messages, p, out, records, wanted)
             except ReplayError:
                 if not strict:  # (a CSV header without the HFP fields)
                     raise
@@ -204,6 +204,14 @@ def read_hfp(
         cut = stream_problem(stream)
     if cut is not None:  # the records before the cut are read all the same
         out.problem(0, str(p), cut)
+    if unnamed:
+        out.problem(
+            0,
+            str(p),
+            f"{unnamed:,} record(s) name no transport mode (no MQTT topic, no mode column): "
+            "read whatever the modes asked for",
+            kept=True,
+        )
     for rec in sorted(records, key=lambda r: r.t):
         out.add(rec)
     return out.log()
@@ -244,12 +252,15 @@ def _collect(
     out: FeedCollector,
     records: list[FeedRecord],
     modes: frozenset[str] | None,
-) -> None:
+) -> int:
     """Each message's vehicle-position record into ``records``; problems and other events
-    counted in ``out``."""
+    counted in ``out``. Returns how many messages were read for naming no mode while
+    ``modes`` were asked for."""
     source = str(path)
+    unnamed = 0
     for number, message, vehicle_id, mode_in_topic in messages:
         mode = None if modes is None else _message_mode(message, mode_in_topic)
+        unnamed += modes is not None and mode is None
         if isinstance(message, Exception):
             out.problem(number, source, str(message))
         elif mode is not None and mode not in (modes or ()):  # (before any field is read)
@@ -264,3 +275,4 @@ def _collect(
                     out.ignore(f"HFP {rec} event (not a vehicle position)")
                 else:
                     records.append(rec)
+    return unnamed
