@@ -7,6 +7,7 @@ import csv
 import dataclasses
 import json
 import math
+import re
 
 import hypothesis.strategies as st
 import pytest
@@ -288,8 +289,12 @@ def test_antikol_match_on_an_hfp_log(kraków_run, tmp_path, capsys):
     matched = [row for row in rows if row["status"] in ("confident", "ambiguous")]
     assert len(matched) > 0.95 * len(rows)
     assert all(row["edge_id"] and row["track_lat"] for row in matched)
-    # every report also where the whole log puts it, checked the same way
-    assert "in hindsight" in captured.out
+    # every report also where the whole log puts it, checked the same way, every one
+    # counted by status
+    line = next(x for x in captured.out.splitlines() if x.startswith("in hindsight"))
+    counts = re.findall(r"(confident|ambiguous|lost|unmatched) ([\d,]+)", line)
+    assert [k for k, _ in counts] == ["confident", "ambiguous", "lost", "unmatched"]
+    assert sum(int(n.replace(",", "")) for _, n in counts) == len(result.reports)
     later = [row for row in rows if row["hindsight_status"] in ("confident", "ambiguous")]
     assert len(later) >= len(matched)
     assert all(row["hindsight_edge_id"] and row["hindsight_track_lat"] for row in later)

@@ -202,7 +202,8 @@ def _match(args: argparse.Namespace) -> int:
         print(line)
     print(
         "in hindsight (each report where the whole log puts it, the hindsight_* columns): "
-        f"confident {total_later.confident:,}, ambiguous {total_later.ambiguous:,}"
+        f"confident {total_later.confident:,}, ambiguous {total_later.ambiguous:,}, "
+        f"lost {total_later.lost:,}, unmatched {total_later.unmatched:,}"
     )
     for line in _summary(total_later, short=True):
         print(line)
