@@ -490,3 +490,18 @@ def test_a_position_of_zeros_is_no_fix(tmp_path: Path) -> None:
     ]
     assert [(p.line, p.kept) for p in log.problems] == [(2, True)]
     assert "0, 0 is no fix" in log.problems[0].reason
+
+
+def test_a_course_outside_a_turn_is_passed_on_with_a_note(tmp_path: Path) -> None:
+    """hdg 400 was wrapped to 40 without a word (an end-to-end review)."""
+    lines = []
+    for s, hdg in [(0, 10), (1, 400), (2, -30), (3, 360)]:
+        fields = {"oper": 40, "veh": 412, "tst": f"2023-10-23T13:42:0{s}Z", "lat": 60.17}
+        fields |= {"long": 24.93 + 1e-4 * s, "spd": 8.5, "hdg": hdg, "loc": "GPS"}
+        lines.append(json.dumps({"VP": fields}))
+    path = tmp_path / "courses.jsonl"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    log = read_hfp(path)
+    assert [r.course_deg for r in log.reports] == [10.0, 40.0, 330.0, 0.0]
+    assert [(p.line, p.kept) for p in log.problems] == [(2, True), (3, True)]
+    assert "passed on as 40" in log.problems[0].reason

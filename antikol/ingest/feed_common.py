@@ -347,6 +347,14 @@ class FeedCollector:
             self.problem(rec.record, rec.source, f"{missing} and nothing to derive it from")
             self._last[rec.vehicle_id] = start.followed_by(rec.t, lat, lon, fix, course, keep_odo)
             return
+        if rec.course_deg is not None and not 0.0 <= rec.course_deg <= 360.0:
+            self.problem(
+                rec.record,
+                rec.source,
+                f"course {rec.course_deg!r} degrees is outside 0 to 360: passed on as "
+                f"{rec.course_deg % 360.0:g}",
+                kept=True,
+            )
         known_course = course
         quality = 1 if fix else (ESTIMATED_FIX_QUALITY if has_pos and rec.estimated else 0)
         if course is None:  # standing: no course is used below COURSE_MIN_SPEED_MPS
