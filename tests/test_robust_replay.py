@@ -149,7 +149,10 @@ def test_cli_replay_summary_and_rejects_file(tmp_path, capsys):
     out = capsys.readouterr()
     assert "read 400 rows: 369 replayed, 31 rejected (invalid lat: 1, not UTF-8: 30)" in out.out
     assert "skipped line 12: invalid lat=95.06" in out.err
-    assert f"... and 11 more bad record(s) (all are in {rejects})" in out.err
+    assert (
+        f"... and 11 more bad record(s) or notes (all are in {rejects}); "
+        "in all 31 skipped, 0 passed on"
+    ) in out.err
     written = list(csv.DictReader(rejects.open()))
     assert [int(r["line"]) for r in written] == [12, *range(32, 62)]
 

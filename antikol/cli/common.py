@@ -198,6 +198,7 @@ class ProblemPrinter:
     def __init__(self, rejects: Path | None) -> None:
         self.shown = 0
         self.total = 0
+        self.kept = 0  # notes: records passed on with a word on them
         self._fh: TextIO | None = None
         self._writer: Any = None
         if rejects is not None:
@@ -212,6 +213,7 @@ class ProblemPrinter:
 
     def __call__(self, problem: RowProblem) -> None:
         self.total += 1
+        self.kept += problem.kept
         if self._writer is not None:
             self._writer.writerow(
                 [problem.source, problem.line, problem.kept, problem.category, problem.reason]
@@ -225,6 +227,7 @@ class ProblemPrinter:
         if self.total > self.shown:
             more = self.total - self.shown
             where = "" if self._fh is None else f" (all are in {self._fh.name})"
-            print(f"... and {more} more bad record(s){where}", file=sys.stderr)
+            split = f"; in all {self.total - self.kept:,} skipped, {self.kept:,} passed on"
+            print(f"... and {more:,} more bad record(s) or notes{where}{split}", file=sys.stderr)
         if self._fh is not None:
             self._fh.close()

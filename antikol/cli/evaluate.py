@@ -202,10 +202,10 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.nmea is not None:
         args.nmea.mkdir(parents=True, exist_ok=True)
         result.write_nmea(args.nmea)
-        print(f"NMEA logs written to {args.nmea}/ (times are UTC from {result.epoch_utc_s:g})")
+        print(f"NMEA logs written to {args.nmea}/ (times are UTC from {_utc(result.epoch_utc_s)})")
     if args.hfp is not None:
         result.write_hfp(args.hfp)
-        print(f"HFP log written to {args.hfp} (times are UTC from {result.epoch_utc_s:g})")
+        print(f"HFP log written to {args.hfp} (times are UTC from {_utc(result.epoch_utc_s)})")
     return 0
 
 
@@ -326,3 +326,10 @@ def _demo(args: argparse.Namespace) -> int:
         f"scores: {args.out / 'city.json'}; {time.perf_counter() - t0:.0f} s in all"
     )
     return 0
+
+
+def _utc(unix_s: float) -> str:
+    """A Unix time as an ISO 8601 UTC time (the epoch of a simulated log)."""
+    from datetime import UTC, datetime
+
+    return datetime.fromtimestamp(unix_s, tz=UTC).isoformat().replace("+00:00", "Z")
