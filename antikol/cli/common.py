@@ -12,7 +12,7 @@ from typing import Any, TextIO
 
 from antikol.errors import InputFileError
 from antikol.ingest.feed_common import SPEED_UNITS
-from antikol.ingest.replaylog import RowProblem
+from antikol.ingest.replaylog import ReplayLog, RowProblem
 from trackmap.cli import (
     EXIT_INPUT_ERROR,
     EXIT_INTERNAL_ERROR,
@@ -41,6 +41,8 @@ __all__ = [
     "off_map_warning",
     "positive_float",
     "positive_int",
+    "print_ignored",
+    "read_command_log",
 ]
 
 # the exit statuses and argparse number types are trackmap's: both programs share one table
@@ -175,6 +177,41 @@ def off_map_warning(net: Any, reports: Iterable[Any], *, map_name: str | None) -
         f"{west:.3f} to {east:.3f}): is it the log's map? ('default' is Kraków; build one "
         "with trackmap build and give it with --map)"
     )
+
+
+def read_command_log(
+    args: argparse.Namespace, log_format: str, problems: ProblemPrinter
+) -> ReplayLog:
+    """Read the log a command names (``args.log``) with its options (``--strict``,
+    ``--speed-unit``, ``--hfp-mode``), each problem of it given to ``problems``.
+
+    Returns
+    -------
+    ReplayLog
+
+    Raises
+    ------
+    InputFileError, ReplayError
+        As :func:`antikol.ingest.feeds.read_log` raises them.
+    """
+    from antikol.ingest.feeds import read_log
+
+    log = read_log(
+        args.log,
+        log_format=log_format,
+        strict=args.strict,
+        speed_unit=args.speed_unit,
+        hfp_modes=args.hfp_mode,
+    )
+    for problem in log.problems:
+        problems(problem)
+    return log
+
+
+def print_ignored(ignored: dict[str, int]) -> None:
+    """Print on stderr the records a log's reader ignored, by reason."""
+    for reason, n in sorted(ignored.items()):
+        print(f"ignored {n} record(s): {reason}", file=sys.stderr)
 
 
 #: Bad records printed on stderr before the rest are only counted.

@@ -31,6 +31,8 @@ from antikol.cli.common import (
     load_map,
     off_map_warning,
     positive_float,
+    print_ignored,
+    read_command_log,
 )
 from antikol.errors import InputFileError, UsageError
 
@@ -143,7 +145,7 @@ def _match(args: argparse.Namespace) -> int:
         match_reports,
         trace_consistency,
     )
-    from antikol.ingest.feeds import detect_log_format, read_log
+    from antikol.ingest.feeds import detect_log_format
 
     if args.map is None or args.map == "none":
         raise UsageError("matching needs a track map: --map FILE or --map default")
@@ -154,19 +156,10 @@ def _match(args: argparse.Namespace) -> int:
             raise InputFileError(f"{out}: cannot write: no directory {out.parent}")
     problems = ProblemPrinter(args.rejects)
     try:
-        log = read_log(
-            args.log,
-            log_format=fmt,
-            strict=args.strict,
-            speed_unit=args.speed_unit,
-            hfp_modes=args.hfp_mode,
-        )
-        for problem in log.problems:
-            problems(problem)
+        log = read_command_log(args, fmt, problems)
     finally:
         problems.close()
-    for reason, n in sorted(log.ignored.items()):
-        print(f"ignored {n} record(s): {reason}", file=sys.stderr)
+    print_ignored(log.ignored)
     if not log.reports:
         raise UsageError(f"{args.log}: no usable report in the log")
     net = load_map(args.map)

@@ -23,6 +23,8 @@ from antikol.cli.common import (
     load_map,
     off_map_warning,
     positive_float,
+    print_ignored,
+    read_command_log,
 )
 from antikol.cli.fleet import add_fleet_options, run_fleet
 from antikol.errors import UsageError
@@ -98,7 +100,7 @@ def add_parser(sub: Any) -> None:
 def _replay(args: argparse.Namespace) -> int:
     from antikol.analysis.analyser import Analyser
     from antikol.evaluation.replay import EventWriter, StreamedLog, replay
-    from antikol.ingest.feeds import detect_log_format, read_log
+    from antikol.ingest.feeds import detect_log_format
     from antikol.ingest.replaylog import ReplayLog, scan_replay_csv
 
     if args.fleet is not None:
@@ -122,21 +124,12 @@ def _replay(args: argparse.Namespace) -> int:
             scan = scan_replay_csv(args.log, strict=args.strict, on_problem=problems)
             log, usable = StreamedLog(args.log, scan), scan.valid
         else:
-            log = read_log(
-                args.log,
-                log_format=fmt,
-                strict=args.strict,
-                speed_unit=args.speed_unit,
-                hfp_modes=args.hfp_mode,
-            )
-            for problem in log.problems:
-                problems(problem)
+            log = read_command_log(args, fmt, problems)
             usable = len(log.reports)
     finally:
         problems.close()
     if isinstance(log, ReplayLog):
-        for reason, n in sorted(log.ignored.items()):
-            print(f"ignored {n} record(s): {reason}", file=sys.stderr)
+        print_ignored(log.ignored)
     if not usable:
         raise UsageError(f"{args.log}: no usable report in the {fmt} log")
     net = load_map(args.map)
