@@ -136,6 +136,26 @@ def test_a_log_out_of_time_order_streams_sorted(tmp_path):
     assert streamed == expected
 
 
+def test_a_log_out_of_time_order_streams_in_the_memory_of_one_run(tmp_path):
+    # the merge once kept every report it had read (one unpickler's memo for the run)
+    rows = _rows(20_000, vehicles=40)
+    random.Random(5).shuffle(rows)
+    path = tmp_path / "shuffled.csv"
+    path.write_bytes(HEADER + b"".join(rows))
+    tracemalloc.start()
+    try:
+        last = count = 0.0
+        for r in stream_replay_csv(path, in_time_order=False, run_size=500):
+            assert r.t >= last
+            last, count = r.t, count + 1
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert count == 20_000
+    # 20,000 reports held take ~7 MB; 40 runs of 500 merge in well under 2 MB
+    assert peak < 2_000_000
+
+
 def test_cli_replay_summary_and_rejects_file(tmp_path, capsys):
     rows = _rows(400)
     rows[10] = rows[10].replace(b"50.06", b"95.06", 1)

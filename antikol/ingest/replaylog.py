@@ -23,13 +23,10 @@ Recorded logs may also be a directory of per-vehicle NMEA logs (:func:`read_nmea
 from __future__ import annotations
 
 import csv
-import heapq
 import logging
 import math
 import os
-import pickle
 import re
-import tempfile
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,6 +35,7 @@ from typing import Any, BinaryIO, Final
 
 from antikol.errors import InputFileError, InvalidReportError, ReplayError
 from antikol.ingest.compressed import logical_stem, open_input, stream_problem
+from antikol.ingest.spill import external_sort
 from antikol.report import VehicleReport
 
 __all__ = [
@@ -532,48 +530,11 @@ def stream_replay_csv(
     if in_time_order:
         yield from reports
         return
-    yield from _external_sort(reports, run_size)
+    yield from external_sort(reports, key=_report_time, run_size=run_size)
 
 
-def _external_sort(reports: Iterable[VehicleReport], run_size: int) -> Iterator[VehicleReport]:
-    runs: list[BinaryIO] = []
-    try:
-        buffer: list[tuple[float, int, VehicleReport]] = []
-        for index, r in enumerate(reports):
-            buffer.append((r.t, index, r))
-            if len(buffer) >= run_size:
-                runs.append(_spill(buffer))
-                buffer = []
-        if not runs:  # it all fitted in one run
-            buffer.sort(key=lambda item: (item[0], item[1]))
-            yield from (r for _, _, r in buffer)
-            return
-        runs.append(_spill(buffer))
-        merged = heapq.merge(*(_unspill(f) for f in runs), key=lambda item: (item[0], item[1]))
-        yield from (r for _, _, r in merged)
-    finally:
-        for f in runs:
-            f.close()
-
-
-def _spill(buffer: list[tuple[float, int, VehicleReport]]) -> BinaryIO:
-    buffer.sort(key=lambda item: (item[0], item[1]))
-    f = tempfile.TemporaryFile(prefix="antikol-replay-")  # noqa: SIM115 - read back later
-    pickler = pickle.Pickler(f, protocol=pickle.HIGHEST_PROTOCOL)
-    for item in buffer:
-        pickler.dump(item)
-        pickler.clear_memo()
-    f.seek(0)
-    return f
-
-
-def _unspill(f: BinaryIO) -> Iterator[tuple[float, int, VehicleReport]]:
-    unpickler = pickle.Unpickler(f)
-    while True:
-        try:
-            yield unpickler.load()
-        except EOFError:
-            return
+def _report_time(r: VehicleReport) -> float:
+    return r.t
 
 
 # --------------------------------------------------------------------------- NMEA
