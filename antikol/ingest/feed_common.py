@@ -49,6 +49,7 @@ __all__ = [
     "SPEED_UNITS",
     "FeedCollector",
     "FeedRecord",
+    "record_order",
     "speed_unit_factor",
     "time_problem",
 ]
@@ -144,6 +145,20 @@ class FeedRecord:
     odometer_m: float | None
     has_fix: bool = True
     estimated: bool = False
+
+
+def record_order(rec: FeedRecord) -> tuple[float, str]:
+    """The order in which :class:`FeedCollector` takes records: by time (POSIX s), then
+    vehicle id (a stable sort keeps each vehicle's records of one time in file order).
+
+    A time that is NaN sorts first (it is rejected when taken): a NaN in the keys would
+    leave the records around it out of order.
+
+    >>> rec = FeedRecord(7, "f.jsonl", "40/412", 1702540801.0, 60.17, 24.94, 8.2, 91.0, None)
+    >>> record_order(rec)
+    (1702540801.0, '40/412')
+    """
+    return (rec.t if rec.t == rec.t else -math.inf), rec.vehicle_id
 
 
 class _Fix(NamedTuple):
@@ -274,14 +289,26 @@ class FeedCollector:
         self.ignored[reason] = self.ignored.get(reason, 0) + 1
 
     def add(self, rec: FeedRecord) -> None:
-        """Turn one record into a report, or note why it cannot be one."""
+        """Turn one record into a report, kept in :attr:`reports`, or note why it cannot
+        be one."""
+        report = self.take(rec)
+        if report is not None:
+            self.reports.append(report)
+
+    def take(self, rec: FeedRecord) -> VehicleReport | None:
+        """Turn one record into a report, returned and not kept (None: noted why not).
+
+        Records are taken in time order, each vehicle's in its file order at equal times
+        (:func:`record_order`): the vehicle's last record is what the next one derives
+        from and is checked against.
+        """
         speed, course = rec.speed_mps, rec.course_deg
         if speed is not None:
             speed *= self.speed_factor
         bad = _unusable(rec, speed)
         if bad is not None:
             self.problem(rec.record, rec.source, bad)
-            return
+            return None
         last = self._last.get(rec.vehicle_id)
         if last is not None and rec.t == last.t:
             if _moved(last, rec):  # two records disagree: which one is right is unknown
@@ -293,14 +320,14 @@ class FeedCollector:
                 )
             else:
                 self.ignore("repeated record time of a vehicle")
-            return
+            return None
         if last is not None and rec.t < last.t:
             self.problem(
                 rec.record,
                 rec.source,
                 f"t={rec.t!r} is earlier than the vehicle's previous record ({last.t!r})",
             )
-            return
+            return None
         odometer = rec.odometer_m
         last_odo = None if last is None else last.odometer
         went_back = odometer is not None and last_odo is not None and odometer < last_odo
@@ -329,7 +356,7 @@ class FeedCollector:
             lat, lon = last.lat, last.lon
         else:
             self.problem(rec.record, rec.source, "no position (lat/lon) and none known before")
-            return
+            return None
         if (speed is None or course is None) and last is not None:
             if speed is None:
                 if odometer is not None and last.odometer is not None and not went_back:
@@ -346,7 +373,7 @@ class FeedCollector:
             missing = "no speed (spd)" if speed is None else "no course (hdg) while moving"
             self.problem(rec.record, rec.source, f"{missing} and nothing to derive it from")
             self._last[rec.vehicle_id] = start.followed_by(rec.t, lat, lon, fix, course, keep_odo)
-            return
+            return None
         if rec.course_deg is not None and not 0.0 <= rec.course_deg <= 360.0:
             self.problem(
                 rec.record,
@@ -372,12 +399,12 @@ class FeedCollector:
             )
         except InvalidReportError as exc:
             self.problem(rec.record, rec.source, str(exc))
-            return
-        self.reports.append(report)
+            return None
         # (a made-up standing course is not remembered as one)
         self._last[rec.vehicle_id] = start.followed_by(
             rec.t, lat, lon, fix, None if known_course is None else report.course_deg, keep_odo
         )
+        return report
 
     def log(self) -> ReplayLog:
         """The reports in time order (then vehicle id), the problems in file and line order,

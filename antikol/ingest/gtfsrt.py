@@ -25,16 +25,30 @@ number (:class:`~antikol.ingest.replaylog.RowProblem`), never fatal. Decoding us
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, Final
 
 from antikol.errors import InputFileError
 from antikol.ingest.compressed import logical_suffix, read_input
-from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor, time_problem
+from antikol.ingest.feed_common import (
+    FeedCollector,
+    FeedRecord,
+    record_order,
+    speed_unit_factor,
+    time_problem,
+)
 from antikol.ingest.replaylog import ReplayLog
+from antikol.ingest.spill import external_sort
 
-__all__ = ["GTFS_RT_SUFFIXES", "feed_message", "read_gtfs_realtime", "write_feed_message"]
+__all__ = [
+    "GTFS_RT_SUFFIXES",
+    "feed_message",
+    "gtfs_realtime_files",
+    "iter_gtfs_realtime_records",
+    "read_gtfs_realtime",
+    "write_feed_message",
+]
 
 #: File name suffixes taken for GTFS-realtime files in a directory.
 GTFS_RT_SUFFIXES: Final = (".pb", ".pbf", ".bin", ".gtfsrt", ".proto")
@@ -175,9 +189,23 @@ def read_gtfs_realtime(
     InputFileError
         The path is missing, an empty directory, or the bindings are not installed.
     """
-    factor = speed_unit_factor(speed_unit)
-    from google.protobuf.message import DecodeError
+    out = FeedCollector(str(Path(path)), strict=strict, speed_factor=speed_unit_factor(speed_unit))
+    files = gtfs_realtime_files(path)
+    for rec in external_sort(iter_gtfs_realtime_records(files, out), key=record_order):
+        out.add(rec)
+    return out.log()
 
+
+def gtfs_realtime_files(path: str | os.PathLike[str]) -> list[Path]:
+    """The feed files of a GTFS-realtime recording: the file itself, or a directory's files
+    with a suffix of :data:`GTFS_RT_SUFFIXES` in name order.
+
+    Raises
+    ------
+    InputFileError
+        The path is missing, a directory without such files, or the GTFS-realtime
+        bindings are not installed.
+    """
     p = Path(path)
     if p.is_dir():
         files = sorted(f for f in p.iterdir() if logical_suffix(f) in GTFS_RT_SUFFIXES)
@@ -190,8 +218,30 @@ def read_gtfs_realtime(
     else:
         raise InputFileError(f"{p}: no such file or directory")
     _bindings()
-    out = FeedCollector(str(p), strict=strict, speed_factor=factor)
-    records: list[FeedRecord] = []
+    return files
+
+
+def iter_gtfs_realtime_records(
+    files: Iterable[Path], collector: FeedCollector
+) -> Iterator[FeedRecord]:
+    """The vehicle positions of GTFS-realtime feed files, file by file (each file is read
+    whole: one snapshot), not yet checked as reports.
+
+    Parameters
+    ----------
+    files : iterable of Path
+        :func:`gtfs_realtime_files`.
+    collector : FeedCollector
+        Gets the problems of the files and entities that give no record, and the counts of
+        ignored entities; its ``strict`` applies.
+
+    Yields
+    ------
+    FeedRecord
+    """
+    from google.protobuf.message import DecodeError
+
+    out = collector
     for f in files:
         try:
             decoded = read_input(f, what="GTFS-realtime file")
@@ -214,9 +264,8 @@ def read_gtfs_realtime(
                 out.ignore("GTFS-realtime entity without a vehicle position")
                 continue
             try:
-                records.append(_entity_record(ent, header_t, number, str(f)))
+                rec = _entity_record(ent, header_t, number, str(f))
             except ValueError as exc:
                 out.problem(number, str(f), f"entity {ent.id or number}: {exc}")
-    for rec in sorted(records, key=lambda r: r.t):
-        out.add(rec)
-    return out.log()
+            else:
+                yield rec

@@ -75,13 +75,18 @@ from __future__ import annotations
 
 import io
 import os
-from collections.abc import Iterable
+from collections.abc import Generator, Iterable, Iterator
 from pathlib import Path
 from typing import Any, Final
 
 from antikol.errors import InputFileError, InvalidArgumentError, ReplayError
 from antikol.ingest.compressed import logical_suffix, open_input, stream_problem
-from antikol.ingest.feed_common import FeedCollector, FeedRecord, speed_unit_factor
+from antikol.ingest.feed_common import (
+    FeedCollector,
+    FeedRecord,
+    record_order,
+    speed_unit_factor,
+)
 from antikol.ingest.hfp_messages import (
     HFP_EVENT,
     HfpRecordError,
@@ -102,6 +107,7 @@ from antikol.ingest.hfp_text import (
     numbered_lines,
 )
 from antikol.ingest.replaylog import ReplayLog
+from antikol.ingest.spill import external_sort
 
 __all__ = [
     "HFP_EVENT",
@@ -109,6 +115,7 @@ __all__ = [
     "HfpRecordError",
     "hfp_fields",
     "hfp_record",
+    "iter_hfp_records",
     "looks_like_hfp_csv",
     "read_hfp",
     "topic_mode",
@@ -161,15 +168,50 @@ def read_hfp(
     ReplayError
         A CSV header without the HFP fields, or a bad record in strict mode.
     """
-    factor = speed_unit_factor(speed_unit)
+    out = FeedCollector(str(Path(path)), strict=strict, speed_factor=speed_unit_factor(speed_unit))
+    # sorted in bounded memory (spilled to temporary files past a few hundred MB)
+    for rec in external_sort(iter_hfp_records(path, out, modes=modes), key=record_order):
+        out.add(rec)
+    return out.log()
+
+
+def iter_hfp_records(
+    path: str | os.PathLike[str],
+    collector: FeedCollector,
+    *,
+    modes: Iterable[str] | None = None,
+) -> Iterator[FeedRecord]:
+    """The vehicle-position records of an HFP log in file order, not yet checked as reports.
+
+    What :func:`read_hfp` reads before it sorts the records by time
+    (:func:`~antikol.ingest.feed_common.record_order`) and gives them to ``collector``.
+
+    Parameters
+    ----------
+    path : path-like
+        As for :func:`read_hfp`.
+    collector : FeedCollector
+        Gets the problems of the file and of the records that are none (a line that is no
+        JSON, a bad field...) and the counts of ignored events; its ``strict`` applies.
+    modes : iterable of str, optional, keyword-only
+        As for :func:`read_hfp`.
+
+    Yields
+    ------
+    FeedRecord
+
+    Raises
+    ------
+    InvalidArgumentError, InputFileError, ReplayError
+        As :func:`read_hfp` raises them (when the first record is asked for, or later).
+    """
     wanted = _modes(modes)
     p = Path(path)
     first = first_line(p)
     is_csv = logical_suffix(p) == ".csv" or (
         not first.startswith(("{", "[", "/")) and looks_like_hfp_csv(first.split(","))
     )
-    out = FeedCollector(str(p), strict=strict, speed_factor=factor)
-    records: list[FeedRecord] = []
+    out = collector
     # a byte that is not UTF-8 stays in its record (as a lone surrogate): the record is
     # rejected if the byte is in a field it needs, the rest of the file is read as usual
     with (
@@ -186,9 +228,9 @@ def read_hfp(
             else:
                 messages = json_messages(numbered_lines(text))
             try:
-                unnamed = _collect(messages, p, out, records, wanted)
+                unnamed = yield from _collect(messages, p, out, wanted)
             except ReplayError:
-                if not strict:  # (a CSV header without the HFP fields)
+                if not out.strict:  # (a CSV header without the HFP fields)
                     raise
                 # a record cut short may be the cut's doing: the file's problem comes first
                 while text.read(SNIFF_BYTES):
@@ -212,9 +254,6 @@ def read_hfp(
             "read whatever the modes asked for",
             kept=True,
         )
-    for rec in sorted(records, key=lambda r: r.t):
-        out.add(rec)
-    return out.log()
 
 
 def _modes(modes: Iterable[str] | None) -> frozenset[str] | None:
@@ -250,12 +289,11 @@ def _collect(
     messages: Iterable[Message],
     path: Path,
     out: FeedCollector,
-    records: list[FeedRecord],
     modes: frozenset[str] | None,
-) -> int:
-    """Each message's vehicle-position record into ``records``; problems and other events
-    counted in ``out``. Returns how many messages were read for naming no mode while
-    ``modes`` were asked for."""
+) -> Generator[FeedRecord, None, int]:
+    """Each message's vehicle-position record; problems and other events counted in
+    ``out``. Returns (as the generator's value) how many messages were read for naming no
+    mode while ``modes`` were asked for."""
     source = str(path)
     unnamed = 0
     for number, message, vehicle_id, mode_in_topic in messages:
@@ -274,5 +312,5 @@ def _collect(
                 if isinstance(rec, str):
                     out.ignore(f"HFP {rec} event (not a vehicle position)")
                 else:
-                    records.append(rec)
+                    yield rec
     return unnamed
