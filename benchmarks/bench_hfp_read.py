@@ -1,12 +1,15 @@
 """Reading an HSL HFP archive: time and peak memory of ``read_hfp`` per vehicle position.
 
-Run: ``python benchmarks/bench_hfp_read.py [--positions 600000] [--form jsonl|csv|csv.zst]``
-(``csv.zst`` needs the ``feeds`` extra).
+Run: ``python benchmarks/bench_hfp_read.py [--positions 600000] [--form jsonl|csv|csv.zst]
+[--streamed]`` (``csv.zst`` needs the ``feeds`` extra).
 
 Writes an archive of ``--positions`` vehicle positions of 200 trams (HSL's MQTT payload
 fields, one message per line, or the raw dumps' camelCase CSV), then reads it in a fresh
 process (``python -c``), so that the peak resident memory (``VmHWM``) is the reader's
-alone: the file's bytes, the records held to put them in time order and the reports.
+alone: the file's bytes, the records sorted by time (in runs of 200,000, on disk past
+one run) and the reports. ``--streamed`` reads it as ``antikol replay`` does
+(:class:`~antikol.ingest.feed_stream.StreamedFeed`: the sorted runs, a checking pass and
+one pass over the reports, none of them held).
 """
 
 from __future__ import annotations
@@ -22,13 +25,19 @@ from pathlib import Path
 _READ = """
 import json, sys, time
 from pathlib import Path
+from antikol.ingest.feed_stream import StreamedFeed
 from antikol.ingest.hfp import read_hfp
 t0 = time.perf_counter()
-log = read_hfp(sys.argv[1])
+if sys.argv[2] == "streamed":
+    with StreamedFeed(sys.argv[1], log_format="hfp") as feed:
+        reports, problems = sum(1 for _ in feed.reports), len(feed.problems)
+else:
+    log = read_hfp(sys.argv[1])
+    reports, problems = len(log.reports), len(log.problems)
 seconds = time.perf_counter() - t0
 peak_kb = next(int(line.split()[1]) for line in Path("/proc/self/status").read_text()
                .splitlines() if line.startswith("VmHWM:"))
-print(json.dumps({"reports": len(log.reports), "problems": len(log.problems),
+print(json.dumps({"reports": reports, "problems": problems,
                   "seconds": seconds, "peak_mb": peak_kb / 1024}))
 """
 
@@ -105,11 +114,15 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--positions", type=int, default=600_000)
     ap.add_argument("--form", choices=("jsonl", "csv", "csv.zst"), default="jsonl")
+    ap.add_argument(
+        "--streamed", action="store_true", help="read as antikol replay does (StreamedFeed)"
+    )
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         path = write_archive(Path(tmp) / "hfp.jsonl", args.positions, args.form)
         size_mb = path.stat().st_size / 1e6
-        run = [sys.executable, "-c", _READ, str(path)]
+        how = "streamed" if args.streamed else "read_hfp"
+        run = [sys.executable, "-c", _READ, str(path), how]
         got = json.loads(subprocess.run(run, check=True, capture_output=True).stdout)
         base = json.loads(
             subprocess.run(
@@ -118,7 +131,8 @@ def main(argv: list[str] | None = None) -> None:
         )
     held = got["peak_mb"] - base["peak_mb"]
     print(
-        f"{args.form}: {size_mb:.0f} MB, {got['reports']:,} reports "
+        f"{args.form}{' streamed' if args.streamed else ''}: {size_mb:.0f} MB, "
+        f"{got['reports']:,} reports "
         f"({got['problems']} problems) in {got['seconds']:.1f} s "
         f"({got['reports'] / got['seconds']:,.0f}/s); peak {got['peak_mb']:.0f} MB, "
         f"{held:.0f} MB above the imports ({held * 1024 / got['reports'] * 1024:.0f} B "

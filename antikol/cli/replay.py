@@ -2,9 +2,12 @@
 
 A replay CSV is read twice and never held in memory: a first pass checks every line
 (bad lines are reported with their number and counted by reason; ``--strict`` stops at
-the first) and a second streams the reports in time order through the analyser. The
-other formats are read into memory. The summary accounts for every record: read,
-replayed, rejected by reason; ``--rejects FILE`` writes every rejected record.
+the first) and a second streams the reports in time order through the analyser. An HFP
+or GTFS-realtime log is read once into runs sorted by time, on disk past 200,000 records
+(:class:`~antikol.ingest.feed_stream.StreamedFeed`), checked in a first pass over them and
+replayed in a second. A directory of NMEA logs is read into memory. The summary accounts
+for every record: read, replayed, rejected by reason; ``--rejects FILE`` writes every
+rejected record.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from antikol.cli.common import (
     ProblemPrinter,
@@ -28,6 +31,11 @@ from antikol.cli.common import (
 )
 from antikol.cli.fleet import add_fleet_options, run_fleet
 from antikol.errors import UsageError
+
+if TYPE_CHECKING:
+    from antikol.evaluation.replay import StreamedLog
+    from antikol.ingest.feed_stream import StreamedFeed
+    from antikol.ingest.replaylog import ReplayLog
 
 __all__ = ["add_parser"]
 
@@ -98,10 +106,10 @@ def add_parser(sub: Any) -> None:
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from antikol.analysis.analyser import Analyser
-    from antikol.evaluation.replay import EventWriter, StreamedLog, replay
+    from antikol.evaluation.replay import StreamedLog
+    from antikol.ingest.feed_stream import STREAMED_FORMATS, StreamedFeed
     from antikol.ingest.feeds import detect_log_format
-    from antikol.ingest.replaylog import ReplayLog, scan_replay_csv
+    from antikol.ingest.replaylog import scan_replay_csv
 
     if args.fleet is not None:
         # (the fleet's partitions are read as they are: m/s, every mode)
@@ -118,17 +126,41 @@ def _replay(args: argparse.Namespace) -> int:
     fmt = detect_log_format(args.log) if args.log_format == "auto" else args.log_format
     check_feed_options(args, fmt)
     problems = ProblemPrinter(args.rejects)
-    log: ReplayLog | StreamedLog
+    log: ReplayLog | StreamedLog | StreamedFeed
     try:
         if fmt == "csv":
             scan = scan_replay_csv(args.log, strict=args.strict, on_problem=problems)
             log, usable = StreamedLog(args.log, scan), scan.valid
+        elif fmt in STREAMED_FORMATS:
+            log = StreamedFeed(
+                args.log,
+                log_format=fmt,
+                strict=args.strict,
+                speed_unit=args.speed_unit,
+                modes=args.hfp_mode,
+            )
+            usable = log.valid
+            for problem in log.problems:
+                problems(problem)
         else:
             log = read_command_log(args, fmt, problems)
             usable = len(log.reports)
     finally:
         problems.close()
-    if isinstance(log, ReplayLog):
+    try:
+        return _replay_log(args, log, fmt, usable)
+    finally:
+        if isinstance(log, StreamedFeed):
+            log.close()
+
+
+def _replay_log(
+    args: argparse.Namespace, log: ReplayLog | StreamedLog | StreamedFeed, fmt: str, usable: int
+) -> int:
+    from antikol.analysis.analyser import Analyser
+    from antikol.evaluation.replay import EventWriter, StreamedLog, replay
+
+    if not isinstance(log, StreamedLog):
         print_ignored(log.ignored)
     if not usable:
         raise UsageError(f"{args.log}: no usable report in the {fmt} log")

@@ -1,7 +1,9 @@
 """Replaying recorded reports through the analyser (the paper's field-test analysis).
 
-Input: a :class:`~antikol.ingest.replaylog.ReplayLog` (any log format, in memory) or a
-:class:`StreamedLog` (a replay CSV streamed in time order, constant memory).
+Input: a :class:`~antikol.ingest.replaylog.ReplayLog` (any log format, in memory), a
+:class:`StreamedLog` (a replay CSV streamed in time order, constant memory) or a
+:class:`~antikol.ingest.feed_stream.StreamedFeed` (an HFP or GTFS-realtime log sorted on
+disk, bounded memory).
 Output: one event row per threat per vehicle per analysis cycle, and a summary that
 accounts for every record: read, replayed, rejected by reason.
 """
@@ -21,6 +23,7 @@ from typing import Any
 from antikol.analysis.analyser import Analyser
 from antikol.analysis.assessment import Assessment, Threat
 from antikol.errors import InputFileError, InvalidArgumentError
+from antikol.ingest.feed_stream import StreamedFeed
 from antikol.ingest.replaylog import CsvScan, ReplayLog, stream_replay_csv
 from antikol.report import VehicleReport
 
@@ -174,7 +177,7 @@ class ReplaySummary:
 
 
 def replay(
-    log: ReplayLog | StreamedLog,
+    log: ReplayLog | StreamedLog | StreamedFeed,
     analyser: Analyser,
     *,
     cycle_s: float = 1.0,
@@ -185,8 +188,9 @@ def replay(
 
     Parameters
     ----------
-    log : ReplayLog or StreamedLog
-        Reports in memory (sorted by time here) or a streamed replay CSV.
+    log : ReplayLog, StreamedLog or StreamedFeed
+        Reports in memory (sorted by time here), a streamed replay CSV or a streamed
+        operator's feed (:class:`~antikol.ingest.feed_stream.StreamedFeed`).
     analyser : Analyser
     cycle_s : float
         Analysis period, s (the paper: 1 s).
@@ -209,6 +213,11 @@ def replay(
             rejected_rows=log.scan.rejected,
             rows_read=log.scan.rows,
             rejected_by_reason=dict(log.scan.rejected_by_reason),
+        )
+        batches = cycles(log.reports, cycle_s, in_time_order=True)
+    elif isinstance(log, StreamedFeed):
+        summary = ReplaySummary(
+            rejected_rows=log.rejected, rejected_by_reason=log.rejected_by_reason()
         )
         batches = cycles(log.reports, cycle_s, in_time_order=True)
     else:

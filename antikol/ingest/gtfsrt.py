@@ -39,7 +39,6 @@ from antikol.ingest.feed_common import (
     time_problem,
 )
 from antikol.ingest.replaylog import ReplayLog
-from antikol.ingest.spill import external_sort
 
 __all__ = [
     "GTFS_RT_SUFFIXES",
@@ -191,7 +190,8 @@ def read_gtfs_realtime(
     """
     out = FeedCollector(str(Path(path)), strict=strict, speed_factor=speed_unit_factor(speed_unit))
     files = gtfs_realtime_files(path)
-    for rec in external_sort(iter_gtfs_realtime_records(files, out), key=record_order):
+    # (sorted in memory: the reports are held all the same; StreamedFeed sorts on disk)
+    for rec in sorted(iter_gtfs_realtime_records(files, out), key=record_order):
         out.add(rec)
     return out.log()
 

@@ -107,7 +107,6 @@ from antikol.ingest.hfp_text import (
     numbered_lines,
 )
 from antikol.ingest.replaylog import ReplayLog
-from antikol.ingest.spill import external_sort
 
 __all__ = [
     "HFP_EVENT",
@@ -169,8 +168,8 @@ def read_hfp(
         A CSV header without the HFP fields, or a bad record in strict mode.
     """
     out = FeedCollector(str(Path(path)), strict=strict, speed_factor=speed_unit_factor(speed_unit))
-    # sorted in bounded memory (spilled to temporary files past a few hundred MB)
-    for rec in external_sort(iter_hfp_records(path, out, modes=modes), key=record_order):
+    # (sorted in memory: the reports are held all the same; StreamedFeed sorts on disk)
+    for rec in sorted(iter_hfp_records(path, out, modes=modes), key=record_order):
         out.add(rec)
     return out.log()
 
