@@ -1,7 +1,7 @@
 """Reading an HSL HFP archive: time and peak memory of ``read_hfp`` per vehicle position.
 
 Run: ``python benchmarks/bench_hfp_read.py [--positions 600000] [--form jsonl|csv|csv.zst]
-[--streamed]`` (``csv.zst`` needs the ``feeds`` extra).
+[--streamed | --replay]`` (``csv.zst`` needs the ``feeds`` extra).
 
 Writes an archive of ``--positions`` vehicle positions of 200 trams (HSL's MQTT payload
 fields, one message per line, or the raw dumps' camelCase CSV), then reads it in a fresh
@@ -9,7 +9,8 @@ process (``python -c``), so that the peak resident memory (``VmHWM``) is the rea
 alone: the file's bytes, the records sorted by time (in runs of 200,000, on disk past
 one run) and the reports. ``--streamed`` reads it as ``antikol replay`` does
 (:class:`~antikol.ingest.feed_stream.StreamedFeed`: the sorted runs, a checking pass and
-one pass over the reports, none of them held).
+one pass over the reports, none of them held); ``--replay`` runs the whole
+``antikol replay --map none`` over it.
 """
 
 from __future__ import annotations
@@ -28,7 +29,13 @@ from pathlib import Path
 from antikol.ingest.feed_stream import StreamedFeed
 from antikol.ingest.hfp import read_hfp
 t0 = time.perf_counter()
-if sys.argv[2] == "streamed":
+if sys.argv[2] == "replay":  # the whole command: reading, the analyser, the events CSV
+    import contextlib, io
+    from antikol.cli import main
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        main(["replay", sys.argv[1], "-o", sys.argv[1] + ".events.csv", "--map", "none"])
+    reports = problems = 0
+elif sys.argv[2] == "streamed":
     with StreamedFeed(sys.argv[1], log_format="hfp") as feed:
         reports, problems = sum(1 for _ in feed.reports), len(feed.problems)
 else:
@@ -114,14 +121,20 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--positions", type=int, default=600_000)
     ap.add_argument("--form", choices=("jsonl", "csv", "csv.zst"), default="jsonl")
-    ap.add_argument(
+    how = ap.add_mutually_exclusive_group()
+    how.add_argument(
         "--streamed", action="store_true", help="read as antikol replay does (StreamedFeed)"
+    )
+    how.add_argument(
+        "--replay",
+        action="store_true",
+        help="run the whole antikol replay (--map none: the sector rule) and time it",
     )
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         path = write_archive(Path(tmp) / "hfp.jsonl", args.positions, args.form)
         size_mb = path.stat().st_size / 1e6
-        how = "streamed" if args.streamed else "read_hfp"
+        how = "streamed" if args.streamed else "replay" if args.replay else "read_hfp"
         run = [sys.executable, "-c", _READ, str(path), how]
         got = json.loads(subprocess.run(run, check=True, capture_output=True).stdout)
         base = json.loads(
@@ -130,6 +143,13 @@ def main(argv: list[str] | None = None) -> None:
             ).stdout
         )
     held = got["peak_mb"] - base["peak_mb"]
+    if args.replay:
+        print(
+            f"{args.form}: {size_mb:.0f} MB, antikol replay --map none of {args.positions:,} "
+            f"positions in {got['seconds']:.1f} s; peak {got['peak_mb']:.0f} MB, "
+            f"{held:.0f} MB above the imports"
+        )
+        return
     print(
         f"{args.form}{' streamed' if args.streamed else ''}: {size_mb:.0f} MB, "
         f"{got['reports']:,} reports "
