@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import random
 import tempfile
-import tracemalloc
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -20,6 +19,7 @@ from antikol.ingest import read_gtfs_realtime, read_hfp
 from antikol.ingest.feed_stream import StreamedFeed
 from antikol.ingest.gtfsrt import write_feed_message
 from tests._feeds import EPOCH
+from tests._memory import traced_peak
 
 
 def _vp(veh: int, t: float, lat: float, lon: float, **fields) -> dict:
@@ -109,23 +109,20 @@ def test_a_gtfs_realtime_directory_streams_as_it_reads(tmp_path):
         assert (feed.problems, feed.ignored) == (held.problems, held.ignored)
 
 
+def _count_in_time_order(reports) -> int:
+    count, last = 0, -1.0
+    for r in reports:
+        assert r.t >= last
+        count, last = count + 1, r.t
+    return count
+
+
 def test_a_streamed_log_is_replayed_in_the_memory_of_one_run(tmp_path):
     path = tmp_path / "vp.jsonl"
     _shuffled_log(path, vehicles=20, seconds=1_000, seed=1)
-    tracemalloc.start()
-    try:
-        with StreamedFeed(path, log_format="hfp", run_size=500) as feed:
-            tracemalloc.reset_peak()
-            count, last = 0, -1.0
-            for r in feed.reports:
-                assert r.t >= last
-                count, last = count + 1, r.t
-            _, streamed_peak = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        held = read_hfp(path)
-        _, held_peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    with StreamedFeed(path, log_format="hfp", run_size=500) as feed:
+        count, streamed_peak = traced_peak(lambda: _count_in_time_order(feed.reports))
+    held, held_peak = traced_peak(lambda: read_hfp(path))
     assert count == len(held.reports) == 20_000
     # 20,000 reports held take ~10 MB; merging 40 runs of 500 takes a small part of it
     assert 5 * streamed_peak < held_peak

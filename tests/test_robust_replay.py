@@ -22,6 +22,7 @@ from antikol.ingest.replaylog import (
     scan_replay_csv,
     stream_replay_csv,
 )
+from tests._memory import traced_peak
 
 HEADER = b"vehicle_id,t,lat,lon,speed_mps,course_deg\n"
 
@@ -142,15 +143,15 @@ def test_a_log_out_of_time_order_streams_in_the_memory_of_one_run(tmp_path):
     random.Random(5).shuffle(rows)
     path = tmp_path / "shuffled.csv"
     path.write_bytes(HEADER + b"".join(rows))
-    tracemalloc.start()
-    try:
-        last = count = 0.0
+
+    def count_in_time_order() -> int:
+        last, count = 0.0, 0
         for r in stream_replay_csv(path, in_time_order=False, run_size=500):
             assert r.t >= last
             last, count = r.t, count + 1
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+        return count
+
+    count, peak = traced_peak(count_in_time_order)
     assert count == 20_000
     # 20,000 reports held take ~7 MB; 40 runs of 500 merge in well under 2 MB
     assert peak < 2_000_000
