@@ -7,6 +7,7 @@ checks that the vectorised evaluation decides every pair exactly as this does.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 from antikol.analysis.conflicts import (
@@ -79,7 +80,7 @@ def _summarise(findings, trusted: bool, st: PairSettings) -> _Summary:
 @dataclass(frozen=True)
 class _Entry:
     """Another vehicle's hypothesis passing a conflict point one way, with the probability
-    of its most probable path that way."""
+    that it passes that way (the sum over its paths that do)."""
 
     hyp: int
     distance_m: float
@@ -98,11 +99,14 @@ def _entries(view: VehicleView, conflict_id: int) -> list[_Entry]:
             _INDEX.clear()
         index: dict[int, list[_Entry]] = {}
         for h_idx, h in enumerate(view.hyps):
-            best: dict[int, float] = {}
+            passing: dict[int, float] = {}
             for p_idx, ways in enumerate(h.path_approaches):
+                pi = h.path_probability[p_idx]
+                pi = max(pi, 0.0) if math.isfinite(pi) else 0.0
                 for a in ways:
-                    best[a] = max(best.get(a, 0.0), h.path_probability[p_idx])
-            for a, prob in best.items():
+                    passing[a] = passing.get(a, 0.0) + pi
+            for a, total in passing.items():
+                prob = min(total, 1.0)
                 ap = h.approaches[a]
                 index.setdefault(ap.conflict_id, []).append(
                     _Entry(h_idx, ap.distance_m, ap.from_edge, ap.to_edge, prob)

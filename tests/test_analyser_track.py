@@ -179,6 +179,48 @@ def test_crossing_at_a_diamond_depends_on_arrival_windows(tmp_path):
     assert any(tr.primary and tr.primary.kind == "crossing" for _, tr in states.values())
 
 
+def _crossing_before_switches() -> OsmBuilder:
+    """A diamond at the origin (A's line south to north, B's west to east); 30 m past it
+    B's line parts, and each branch parts again: four ways on, each taken at 0.25."""
+    b = OsmBuilder()
+    c = b.node(0.0, 0.0)
+    b.line([(0.0, -250.0), c, (0.0, 250.0)], oneway="yes")
+    first, south, north = b.node(30.0, 0.0), b.node(90.0, 0.0), b.node(110.0, 80.0)
+    b.line([(-250.0, 0.0), c, first, south, (300.0, 0.0)], oneway="yes")
+    bend = [(10.0, 1.0), (20.0, 4.0), (30.0, 9.0), (55.0, 30.0)]
+    b.line([first, *[(30.0 + x, y) for x, y in bend], north], oneway="yes")
+    b.line([south, *[(90.0 + x, -y) for x, y in bend], (170.0, -80.0)], oneway="yes")
+    b.line([north, (140.0, 160.0), (150.0, 250.0)], oneway="yes")
+    b.line([north, (160.0, 150.0), (250.0, 220.0)], oneway="yes")
+    return b
+
+
+def test_crossing_is_weighed_by_every_way_through_it(tmp_path):
+    # B passes the diamond whichever of its four ways it takes: the crossing is certain,
+    # not as probable as its likeliest single way (0.25, below warning_probability, kept
+    # the lamp off until the emergency level; the referee's seed 5 missed such a crossing)
+    net = build(_crossing_before_switches(), tmp_path)
+    t = np.arange(0.0, 8.0, 0.5)
+    a = reports_along(
+        "A", [(0.0, -250.0), (0.0, 250.0)], start_m=150.0, speed_mps=8.0, t=t, frame=FRAME
+    )
+    b_ = reports_along(
+        "B", [(-250.0, 0.0), (300.0, 0.0)], start_m=150.0, speed_mps=8.0, t=t, frame=FRAME
+    )
+    states, _ = run(net, a, b_, config=BARE)
+    crossing = [
+        tr.primary
+        for _, tr in states.values()
+        if tr.primary is not None and tr.primary.kind == "crossing"
+    ]
+    assert crossing
+    assert all(th.probability == pytest.approx(1.0) for th in crossing)
+    levels = [tr.level for _, (_, tr) in sorted(states.items())]
+    assert "warning" in levels  # before the emergency, not straight to it
+    if "emergency" in levels:
+        assert levels.index("warning") < levels.index("emergency")
+
+
 def test_branch_off_the_planned_route_is_advisory(tmp_path):
     net = build(switch_fixture(), tmp_path)
     trunk = next(e for e in net.edges if e.way_ids == (1,))

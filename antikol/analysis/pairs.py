@@ -269,11 +269,16 @@ class PairEvaluator:
         l_app += first_app[p_hyp[l_path]]
         if len(l_app) and not bool(np.all(l_app < (first_app + n_apps_of)[p_hyp[l_path]])):
             raise ValueError("a path of a hypothesis view names an approach it does not have")
-        # the most probable path through each approach, as ``if pi > best`` did: fmax skips
-        # a nan probability, and adding 0.0 turns a -0.0 it may store into 0.0
+        # the probability of passing each approach: the sum over the paths through it. A
+        # hypothesis' paths are exclusive alternatives (each takes its own branch at some
+        # switch), so paths that part only after a conflict point all pass it: a crossing
+        # just before a switch is passed whichever branch follows (the most probable path
+        # alone halved it there). A nan probability counts as none; a planned route may
+        # let several paths through, hence the clip.
         a_prob = np.zeros(len(approaches))
-        np.fmax.at(a_prob, l_app, p_prob[l_path])
-        a_prob += 0.0
+        finite = np.where(np.isfinite(p_prob), np.maximum(p_prob, 0.0), 0.0)
+        np.add.at(a_prob, l_app, finite[l_path])
+        np.minimum(a_prob, 1.0, out=a_prob)
         way = self._way
         ways = [way(ap.conflict_id, ap.from_edge, ap.to_edge) for ap in approaches]
         f8, i8 = np.float64, np.int64
