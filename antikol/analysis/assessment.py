@@ -53,7 +53,10 @@ class Threat:
     bearing_deg : float or None
         Bearing to the other vehicle (sector method), degrees.
     probability : float or None
-        Probability of the conflict given the match hypotheses (track method).
+        Probability of the conflict given the match hypotheses and, without a route, the
+        branches either vehicle may take at facing switches (track method): over the own
+        vehicle's hypotheses and paths, and the other's hypotheses, each with the summed
+        probability of the other's paths through the conflict point.
     own_match_probability, other_match_probability : float or None
         Probabilities of the track matches the threat relied on.
     ambiguous : bool
