@@ -81,7 +81,7 @@ from antikol.positioning.outputs import (
     unmatched_position,
 )
 from antikol.positioning.physics import implausible
-from antikol.positioning.placing import place_vehicles
+from antikol.positioning.placing import place_probabilities, place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
@@ -701,16 +701,8 @@ class Positioner:
         )
 
     def _place_probabilities(self, rows: IntArray) -> FloatArray:
-        """Probability of each vehicle's reported place: its hypothesis plus those at the
-        same spot (the same state, or within a few metres across a plain node)."""
-        hs, ho = self._f.hs[rows], self._f.ho[rows]
-        prob = np.where(hs >= 0, np.exp(self._f.hp[rows]), 0.0)
-        first = np.zeros(hs.shape[1], dtype=np.intp)  # slot 0 in every column
-        others = np.where(hs >= 0, hs, 0)
-        gap = self.reach.between(hs[:, first], ho[:, first], others, ho)
-        same = (hs == hs[:, first]) | (np.abs(gap) <= _SAME_PLACE_M)
-        same[:, 0] = True
-        return np.minimum(np.sum(np.where(same & (hs >= 0), prob, 0.0), axis=1), 1.0)
+        """:func:`~antikol.positioning.placing.place_probabilities` of ``rows``."""
+        return place_probabilities(self._f, self.reach, rows, same_place_m=_SAME_PLACE_M)
 
     # -- discrete fixes ------------------------------------------------------------------
     def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:

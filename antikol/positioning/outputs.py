@@ -120,18 +120,19 @@ def hypotheses_of(
         Per vehicle, its filled slots in order (``math.exp`` of each log probability, the
         scalar function, so that one vehicle at a time gives the same numbers).
     """
-    ok = allowed.tolist()
     filled = states >= 0
-    # only the filled slots are read and converted (most vehicles fill one of eight)
+    # only the filled slots are read and converted (most vehicles fill one of eight; the
+    # map's every state, converted, would cost more than a few vehicles' slots)
     counts = np.count_nonzero(filled, axis=1).tolist()
     flat = [
         a[filled].tolist() for a in (states, offsets_m, log_probability, progress_m, wrong_way_s)
     ]
+    wrong = (~allowed[states[filled]]).tolist()
     hyps = [
         # positional: edge_id, direction, offset_m, probability, progress_m, wrong_way,
         # wrong_way_s (a test keeps the order)
-        Hypothesis(s >> 1, 1 - 2 * (s & 1), o, math.exp(p), g, not ok[s], w)
-        for s, o, p, g, w in zip(*flat, strict=True)
+        Hypothesis(s >> 1, 1 - 2 * (s & 1), o, math.exp(p), g, bad, w)
+        for s, o, p, g, w, bad in zip(*flat, wrong, strict=True)
     ]
     out: list[tuple[Hypothesis, ...]] = []
     start = 0

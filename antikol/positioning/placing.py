@@ -31,11 +31,11 @@ from antikol.positioning.config import PositioningConfig
 from antikol.positioning.deadreckoning import Advanced, advance, edge_mass
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.outputs import Placement
-from antikol.positioning.reach import state_direction, state_edge
+from antikol.positioning.reach import ReachTable, state_direction, state_edge
 from antikol.positioning.records import Hypothesis
 from trackmap import TrackMap
 
-__all__ = ["Estimate", "place_one", "place_vehicles"]
+__all__ = ["Estimate", "place_one", "place_probabilities", "place_vehicles"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -315,3 +315,37 @@ def _way(net: TrackMap, first: Hypothesis, entered: int, moved: Advanced) -> lis
         if lineage in net.successors(*came, respect_direction=False):
             way.insert(0, came)
     return way
+
+
+def place_probabilities(
+    fleet: FleetState, reach: ReachTable, rows: npt.NDArray[np.int64], *, same_place_m: float
+) -> npt.NDArray[np.float64]:
+    """Probability of each vehicle's reported place: its hypothesis plus those at the same
+    spot (the same state, or within ``same_place_m`` across a plain node).
+
+    Parameters
+    ----------
+    fleet : FleetState
+        The hypotheses (``hs``, ``ho``, ``hp``; read only).
+    reach : ReachTable
+    rows : ndarray of int
+        The vehicles' rows.
+    same_place_m : float, keyword-only
+        Hypotheses this close along the track are at the same spot, m.
+
+    Returns
+    -------
+    ndarray of float
+        At most 1.
+    """
+    hs, ho = fleet.hs[rows], fleet.ho[rows]
+    filled = hs >= 0
+    prob = np.where(filled, np.exp(fleet.hp[rows]), 0.0)
+    if not filled[:, 1:].any():  # (most often one hypothesis: no distance to measure)
+        return np.minimum(np.sum(prob, axis=1), 1.0)
+    first = np.zeros(hs.shape[1], dtype=np.intp)  # slot 0 in every column
+    others = np.where(filled, hs, 0)
+    gap = reach.between(hs[:, first], ho[:, first], others, ho)
+    same = (hs == hs[:, first]) | (np.abs(gap) <= same_place_m)
+    same[:, 0] = True
+    return np.minimum(np.sum(np.where(same & filled, prob, 0.0), axis=1), 1.0)

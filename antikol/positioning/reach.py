@@ -91,12 +91,12 @@ class _Distances:
 
     def lookup(self, frm: IntArray, to: IntArray, n_states: int) -> FloatArray:
         key = frm * n_states + to
-        idx = np.searchsorted(self.keys, key)
-        idx = np.minimum(idx, max(len(self.keys) - 1, 0))
-        if len(self.keys) == 0:
+        keys = self.keys
+        if len(keys) == 0:
             return np.full(key.shape, np.inf)
-        found = self.keys[idx] == key
-        return np.where(found, self.metres[idx], np.inf)
+        # (the array's own methods: np.searchsorted's dispatch costs more than a few keys)
+        idx = np.minimum(keys.searchsorted(key), len(keys) - 1)
+        return np.where(keys[idx] == key, self.metres[idx], np.inf)
 
 
 class ReachTable:
@@ -299,10 +299,16 @@ class ReachTable:
         frm_offset_m = np.asarray(frm_offset_m, dtype=float)
         to_offset_m = np.asarray(to_offset_m, dtype=float)
         between = table.lookup(frm, to, self.n_states)
-        out = self.remaining(frm, frm_offset_m) + between + self.since_entry(to, to_offset_m)
-        same = frm == to
-        along = (to_offset_m - frm_offset_m) * np.where((frm & 1) == 0, 1.0, -1.0)
-        return np.where(same & (along >= -1e-9), along, out)
+        # (remaining and since_entry inline: the same arithmetic, fewer calls)
+        lengths = self.lengths
+        frm_forward = (frm & 1) == 0
+        out = (
+            np.where(frm_forward, lengths[frm >> 1] - frm_offset_m, frm_offset_m)
+            + between
+            + np.where((to & 1) == 0, to_offset_m, lengths[to >> 1] - to_offset_m)
+        )
+        along = (to_offset_m - frm_offset_m) * np.where(frm_forward, 1.0, -1.0)
+        return np.where((frm == to) & (along >= -1e-9), along, out)
 
     def signed_distance(
         self,
