@@ -189,6 +189,8 @@ def unusable_odometers(
     vehicle's state in ``fleet`` (read only) before the reports of ``rows`` (time ``t``,
     s; speed, m/s; reading, m); a coarse odometer's resolution
     (:mod:`~antikol.positioning.odometerresolution`) widens the bounds."""
+    if np.isnan(odometer_m).all():  # (no readings: neither, as below; most feeds have none)
+        return np.zeros(len(rows), dtype=bool), np.zeros(len(rows), dtype=bool)
     reset = odometer_resets(odometer_m, fleet.odo[rows])
     glitch = ~reset & odometer_glitches(
         odometer_m - previous_odometer(fleet, rows),

@@ -136,7 +136,8 @@ def quantisation_sigma(resolution_m: FloatArray, *, step_sigma_m: float) -> Floa
     ndarray of float
         ``sqrt(max(resolution² / 6 − step_sigma_m², 0))``, m.
     """
-    q = np.nan_to_num(np.asarray(resolution_m, dtype=float), nan=0.0)
+    # (NaN compares False: no np.nan_to_num, whose cost is most of a cycle's few rows)
+    q = np.asarray(resolution_m, dtype=float)
     q = np.where(q > COARSE_RESOLUTION_M, q, 0.0)
     return np.sqrt(np.maximum(q * q / 6.0 - step_sigma_m * step_sigma_m, 0.0))
 

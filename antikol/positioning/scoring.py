@@ -264,10 +264,16 @@ def score_fixes(
     # only by the speeds' share of it; the outlier gate keeps the odometer's own scale
     # (a fix 50 m off along the track is no move a good odometer allows)
     # (a coarse odometer's step is off by up to its unit: odometerresolution)
-    quant = np.where(
-        has_odo,
-        quantisation_sigma(odometer_resolution(fleet, rows), step_sigma_m=c.odometer_step_sigma_m),
-        0.0,
+    quant = (
+        np.where(
+            has_odo,
+            quantisation_sigma(
+                odometer_resolution(fleet, rows), step_sigma_m=c.odometer_step_sigma_m
+            ),
+            0.0,
+        )
+        if has_odo.any()
+        else np.zeros(n)  # (as np.where gives it: a feed without odometers)
     )
     beta = np.where(
         has_odo,

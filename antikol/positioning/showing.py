@@ -121,9 +121,10 @@ def note_showing_evidence(
     """
     if not len(rows):
         return
-    for name in ("sm", "sn", "sa", "sp"):
-        getattr(fleet, name)[rows[fresh]] = 0.0
-    fleet.sc[rows[fresh]] = np.nan
+    if fresh.any():  # (the usual fix continues what was counted)
+        for name in ("sm", "sn", "sa", "sp"):
+            getattr(fleet, name)[rows[fresh]] = 0.0
+        fleet.sc[rows[fresh]] = np.nan
     with np.errstate(invalid="ignore"):  # no speed: the fixes' run tells the track
         moving = ~(speed_mps < config.start_course_max_speed_mps)
     fleet.sm[rows] += moving

@@ -139,19 +139,23 @@ def learn_speed_units(
     span = t_s - f.utrail[rows]
     done = anchored & ((f.urun[rows] >= TRAIL_RUN) | (span >= TRAIL_S))
     pooled = done & (f.urun[rows] >= _TRAIL_MIN_RUN)
-    r = rows[pooled]
-    f.udisp[r] += np.hypot(x_m[pooled] - f.ux[r], y_m[pooled] - f.uy[r])
-    f.urep[r] += f.urun[r]
-    full = r[f.urep[r] > POOL_RUN]
-    f.udisp[full] *= 0.5
-    f.urep[full] *= 0.5
+    # (the guards skip what changes nothing: most reports end no trail)
+    if pooled.any():
+        r = rows[pooled]
+        f.udisp[r] += np.hypot(x_m[pooled] - f.ux[r], y_m[pooled] - f.uy[r])
+        f.urep[r] += f.urun[r]
+        full = r[f.urep[r] > POOL_RUN]
+        f.udisp[full] *= 0.5
+        f.urep[full] *= 0.5
     # a new trail starts at every fix that ends one, and at the first fix of a vehicle
     start = done | (fixed & ~anchored)
-    r = rows[start]
-    f.ux[r], f.uy[r], f.utrail[r], f.urun[r] = x_m[start], y_m[start], t_s[start], 0.0
-    for i in np.flatnonzero(pooled & (f.udisp[rows] >= MIN_DISPLACEMENT_M)).tolist():
-        name = f"row {rows[i]}" if reports is None else repr(reports[i].vehicle_id)
-        _judge(f, stats, int(rows[i]), name)
+    if start.any():
+        r = rows[start]
+        f.ux[r], f.uy[r], f.utrail[r], f.urun[r] = x_m[start], y_m[start], t_s[start], 0.0
+    if pooled.any():
+        for i in np.flatnonzero(pooled & (f.udisp[rows] >= MIN_DISPLACEMENT_M)).tolist():
+            name = f"row {rows[i]}" if reports is None else repr(reports[i].vehicle_id)
+            _judge(f, stats, int(rows[i]), name)
     return np.asarray(speed * (f.uscale[rows] / before), dtype=np.float64)
 
 
