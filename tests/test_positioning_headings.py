@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 import trackmap
 from antikol.positioning.headings import HeadingProfile
 from antikol.positioning.reach import ReachTable
+from tests._memory import traced_peak
 
 
 @pytest.fixture(scope="module")
@@ -72,3 +73,17 @@ def test_the_reach_table_of_a_map_carries_its_profile(krakow):
     table = ReachTable.for_map(krakow, reach_m=400.0)
     e, s = np.array([7]), np.array([3.0])
     assert table.headings.at(e, s, np.array([1]))[0] == pytest.approx(krakow.heading_at(7, 3.0, 1))
+
+
+def test_building_the_profile_holds_little_beyond_the_table(krakow):
+    # every positioner (each on-board unit) builds it: the whole map's samples in one
+    # search passed through ~75 MB of temporaries, which set the units' peak memory
+    again, peak = traced_peak(lambda: HeadingProfile(krakow))
+    lengths = np.array([e.geometry.length for e in krakow.edges])
+    table_bytes = 8 * int(np.sum(np.ceil(lengths) + 1))  # (Kraków: 212,745 samples, 1.7 MB)
+    assert peak < 8 * table_bytes
+    # (and the table is the same, built in pieces or whole)
+    edge = np.arange(len(krakow.edges))
+    half = lengths / 2.0
+    ones = np.ones(len(edge), dtype=np.int64)
+    assert np.array_equal(again.at(edge, half, ones), krakow.headings_at(edge, np.rint(half), ones))

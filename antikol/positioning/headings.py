@@ -32,6 +32,9 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 
+_CHUNK = 8192  # samples per call of the map's heading search while the table is built
+
+
 class HeadingProfile:
     """The true heading (degrees, along the vertex order) of every edge at every metre.
 
@@ -52,7 +55,16 @@ class HeadingProfile:
         offset = np.minimum(metre.astype(float), lengths[edge])
         self._first: IntArray = first
         self._lengths: FloatArray = lengths
-        self._heading: FloatArray = track_map.headings_at(edge, offset, np.ones(len(edge)))
+        # in chunks: the whole map at once (210,000 samples for Kraków) passed through
+        # ~75 MB of temporaries, each on-board unit's peak memory (the values are per
+        # sample, so the chunks give the same table)
+        heading = np.empty(len(edge), dtype=float)
+        for lo in range(0, len(edge), _CHUNK):
+            hi = lo + _CHUNK
+            heading[lo:hi] = track_map.headings_at(
+                edge[lo:hi], offset[lo:hi], np.ones(len(edge[lo:hi]))
+            )
+        self._heading: FloatArray = heading
 
     def at(self, edge_ids: IntArray, offsets_m: FloatArray, directions: IntArray) -> FloatArray:
         """True headings of travel at track places, degrees (at the nearest whole metre).
