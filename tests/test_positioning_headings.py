@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import trackmap
+from antikol.positioning import reach
 from antikol.positioning.headings import HeadingProfile
 from antikol.positioning.reach import ReachTable
 from tests._memory import traced_peak
@@ -87,3 +88,21 @@ def test_building_the_profile_holds_little_beyond_the_table(krakow):
     half = lengths / 2.0
     ones = np.ones(len(edge), dtype=np.int64)
     assert np.array_equal(again.at(edge, half, ones), krakow.headings_at(edge, np.rint(half), ones))
+
+
+def test_a_positioners_tables_are_built_in_little_memory(krakow, monkeypatch):
+    # every on-board unit builds them: the heading table in one search (~75 MB of
+    # temporaries) and the reach table's Dijkstra 256 sources at a time (~26 MB) set its
+    # peak memory; both now work in pieces
+    table, peak = traced_peak(lambda: ReachTable(krakow, reach_m=600.0))
+    assert peak < 16e6
+    # (the pieces' size changes no distance)
+    monkeypatch.setattr(reach, "_CHUNK", 1000)
+    whole = ReachTable(krakow, reach_m=600.0)
+    states = np.arange(table.n_states)
+    zero = np.zeros(len(states))
+    for frm in (0, 1, 700, table.n_states - 1):
+        at = np.full(len(states), frm)
+        assert np.array_equal(
+            table.between(at, zero, states, zero), whole.between(at, zero, states, zero)
+        )
