@@ -60,10 +60,8 @@ class HeadingProfile:
         # sample, so the chunks give the same table)
         heading = np.empty(len(edge), dtype=float)
         for lo in range(0, len(edge), _CHUNK):
-            hi = lo + _CHUNK
-            heading[lo:hi] = track_map.headings_at(
-                edge[lo:hi], offset[lo:hi], np.ones(len(edge[lo:hi]))
-            )
+            part = slice(lo, lo + _CHUNK)
+            heading[part] = track_map.headings_at(edge[part], offset[part], 1)
         self._heading: FloatArray = heading
 
     def at(self, edge_ids: IntArray, offsets_m: FloatArray, directions: IntArray) -> FloatArray:
