@@ -1,7 +1,7 @@
 """Draw "Synthville", a tram network no part of antikol was tuned on, as an OSM extract.
 
-Run: ``python benchmarks/synthville.py [-o synthville.osm] [--untagged-m 400]``, then score
-the library on it with the independent referee, which reads any OSM file:
+Run: ``python benchmarks/synthville.py [-o synthville.osm] [--untagged-m 400] [--left-hand]``,
+then score the library on it with the independent referee, which reads any OSM file:
 
     python ../shared/referee/run.py --map synthville.osm --analyser track --trams 20 --minutes 10
     python benchmarks/referee_selectivity.py synthville.osm --seed 1
@@ -17,7 +17,8 @@ stops, tram stops beside the tracks, and a line **cut by the extract's bounding 
 (its ways name nodes the file does not have). ``--untagged-m`` leaves that much of the
 east-west double track without ``oneway`` tags (a common omission; the library infers
 right-hand running there, the referee lets trams run both ways on each track); 0 tags
-every way.
+every way. ``--left-hand`` mirrors the whole network east to west, ways and tags as they
+are: a left-hand city, whose tagged double track tells the map builder so.
 
 Coordinates are local metres (x east, y north) projected to WGS84 around Helsinki's centre
 (a transverse Mercator, :mod:`pyproj`); node and way ids are positive and stable, so the
@@ -187,6 +188,14 @@ class OsmDraft:
         for nid, n in arms.items():
             if n >= 3 and "railway" not in self.nodes[nid][2]:
                 self.nodes[nid][2]["railway"] = "switch"
+
+    def mirrored(self) -> OsmDraft:
+        """The same network mirrored east to west: right-hand running becomes left-hand
+        running, with every way, tag and id as it was (a left-hand city drawn the same
+        way)."""
+        out = OsmDraft(ways=[(w, list(ids), dict(t)) for w, ids, t in self.ways])
+        out.nodes = {n: (-x, y, dict(t)) for n, (x, y, t) in self.nodes.items()}
+        return out
 
     def write_xml(self, path: Path, *, clip_south_m: float = _CLIP_Y_M) -> int:
         """Write OSM XML 0.6 as an extract cut at ``clip_south_m``: nodes south of it are
@@ -436,8 +445,15 @@ def main(argv: Sequence[str] | None = None) -> None:
         default=400.0,
         help="metres of double track drawn without oneway tags (0: every way tagged)",
     )
+    ap.add_argument(
+        "--left-hand",
+        action="store_true",
+        help="mirror the network east to west: left-hand running, ways and tags as they are",
+    )
     args = ap.parse_args(argv)
     osm = draw_synthville(untagged_m=args.untagged_m)
+    if args.left_hand:
+        osm = osm.mirrored()
     cut = osm.write_xml(args.output)
     print(
         f"{args.output}: {len(osm.nodes) - cut} nodes ({cut} beyond the extract's edge), "

@@ -35,6 +35,7 @@ from typing import Any, TextIO
 from trackmap.builder import build
 from trackmap.check import check
 from trackmap.errors import ParameterError, TrackMapError
+from trackmap.network import TrackMap
 from trackmap.storage import load
 
 __all__ = [
@@ -121,7 +122,13 @@ def _parser() -> argparse.ArgumentParser:
         default="tram",
         help="comma-separated railway kinds: tram, light_rail, rail, subway, narrow_gauge",
     )
-    b.add_argument("--driving-side", choices=("right", "left"), default="right")
+    b.add_argument(
+        "--driving-side",
+        choices=("auto", "right", "left"),
+        default="auto",
+        help="side trams keep to on double track, which sets the direction of untagged "
+        "double track (default auto: the side the tagged double track shows, else right)",
+    )
     b.add_argument(
         "--max-deflection",
         type=positive_float,
@@ -286,6 +293,19 @@ def _build(args: argparse.Namespace) -> int:
     return 0
 
 
+def _driving_side_text(net: TrackMap) -> str:
+    """The map's driving side, with how the build chose it where the file says."""
+    side = net.metadata.driving_side
+    asked = net.metadata.build.get("driving_side")
+    evidence = net.metadata.source.get("driving_side_evidence")
+    if not isinstance(evidence, dict):
+        return side if asked is None else f"{side} (asked {asked})"
+    right_km = float(evidence.get("right_m", 0.0)) / 1000
+    left_km = float(evidence.get("left_m", 0.0)) / 1000
+    shown = f"tagged double track {right_km:,.1f} km right-hand, {left_km:,.1f} km left-hand"
+    return f"{side} (asked {asked or '?'}; {shown})"
+
+
 def _info(args: argparse.Namespace) -> int:
     net = load(args.map)
     stats = net.stats()
@@ -304,7 +324,7 @@ def _info(args: argparse.Namespace) -> int:
     for key, value in stats.items():
         shown = f"{value:.2f}" if isinstance(value, float) else str(value)
         print(f"  {key:<26} {shown}")
-    print(f"  {'driving_side':<26} {net.metadata.driving_side}")
+    print(f"  {'driving_side':<26} {_driving_side_text(net)}")
     print(f"  {'source':<26} {net.metadata.source.get('file', '?')}")
     clipped = net.metadata.source.get("clipped")
     if clipped:

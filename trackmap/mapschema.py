@@ -205,6 +205,13 @@ _SOURCE: Final = {
             "type": "array",
             "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": [_INT64, _INT64]},
         },
+        "driving_side_evidence": {
+            "type": "object",
+            "properties": {
+                "right_m": {"type": "number", "minimum": 0},
+                "left_m": {"type": "number", "minimum": 0},
+            },
+        },
     },
 }
 _BUILD: Final = {
@@ -221,6 +228,7 @@ _BUILD: Final = {
         },
         "fouling_clearance_m": {"type": "number", "minimum": 0, "maximum": 1000},
         "stop_snap_m": {"type": "number", "minimum": 0, "maximum": 100_000},
+        "driving_side": {"type": "string", "enum": ["auto", "right", "left"]},
     },
 }
 

@@ -15,16 +15,22 @@ import numpy as np
 import shapely
 from pyproj import Geod
 
+from trackmap.builder.drivingside import (
+    DRIVING_SIDE_CHOICES,
+    DRIVING_SIDES,
+    direction_from_side,
+    parallel_neighbours,
+    resolve_driving_side,
+    tally_driving_side,
+)
 from trackmap.builder.sources import RawStop, SourceData, check_kinds, read_source
 from trackmap.builder.topology import (
     Piece,
     classify_node,
-    direction_from_side,
     drop_duplicate_pieces,
     find_crossings,
     fouling_distance,
     merge_chains,
-    parallel_neighbours,
     propagate_directions,
     split_ways,
 )
@@ -40,7 +46,6 @@ __all__ = ["DRIVING_SIDES", "assemble", "build"]
 
 logger = logging.getLogger(__name__)
 
-DRIVING_SIDES = ("right", "left")
 _GEOD = Geod(ellps="WGS84")
 
 
@@ -48,7 +53,7 @@ def build(
     source: str | os.PathLike[str],
     *,
     kinds: tuple[str, ...] | list[str] | str = ("tram",),
-    driving_side: str = "right",
+    driving_side: str = "auto",
     max_deflection_deg: float = 35.0,
     tangent_probe_m: float = 3.0,
     parallel_spacing_m: tuple[float, float] = (2.5, 6.0),
@@ -65,9 +70,13 @@ def build(
     kinds : sequence of str or comma-separated str
         ``railway=`` values to keep: ``tram`` (default), ``light_rail``, ``rail``,
         ``subway``, ``narrow_gauge``.
-    driving_side : {"right", "left"}
+    driving_side : {"auto", "right", "left"}
         Side trams keep to on double track; sets the running direction of untagged
-        double track.
+        double track. ``auto`` (default): the side the source's tagged one-way double
+        track shows (at least 400 m of it, 80 % one way), else right-hand running;
+        ``metadata.driving_side`` says which, ``metadata.source["driving_side_evidence"]``
+        what the tags showed. A side given by name that the tags contradict is used as
+        given, with a logged warning.
     max_deflection_deg : float
         Largest change of direction a vehicle can make through a switch or crossing,
         degrees (OSRD's "straight enough" rule).
@@ -124,6 +133,7 @@ def build(
         "parallel_spacing_m": [lo_sp, hi_sp],
         "fouling_clearance_m": float(fouling_clearance_m),
         "stop_snap_m": float(stop_snap_m),
+        "driving_side": driving_side,
     }
     return assemble(
         data,
@@ -166,6 +176,18 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
     pieces.sort(key=lambda p: (min(p.way_ids), p.node_ids[0], p.node_ids[-1], len(p.node_ids)))
     lines = [shapely.LineString([local[n] for n in p.node_ids]) for p in pieces]
 
+    # the side the tagged main-line track shows (depot fans and sidings run both ways)
+    tagged = [
+        i for i, p in enumerate(pieces) if p.direction_source != "none" and p.attrs.service is None
+    ]
+    tally = tally_driving_side(
+        lines,
+        [p.direction for p in pieces],
+        tagged,
+        min_spacing_m=spacing[0],  # type: ignore[index]
+        max_spacing_m=spacing[1],  # type: ignore[index]
+    )
+    driving_side = resolve_driving_side(driving_side, tally, where=data.path)
     directions, sources = _running_directions(pieces, lines, driving_side, spacing)  # type: ignore[arg-type]
 
     edges = [
@@ -201,6 +223,10 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
         "dropped": dict(data.dropped),
         "duplicate_ways": [list(g) for g in duplicates],
         "overlapping_edges": overlaps,
+        "driving_side_evidence": {
+            "right_m": round(tally.right_m, 1),
+            "left_m": round(tally.left_m, 1),
+        },
     }
     if data.bounds is not None:
         source["bounds"] = list(data.bounds)
@@ -239,8 +265,10 @@ def _check_parameters(
     stop_snap_m: object,
 ) -> None:
     """Raise :class:`ParameterError` for a build parameter outside its domain."""
-    if driving_side not in DRIVING_SIDES:
-        raise ParameterError(f"driving_side must be 'right' or 'left', got {driving_side!r:.40}")
+    if driving_side not in DRIVING_SIDE_CHOICES:
+        raise ParameterError(
+            f"driving_side must be 'auto', 'right' or 'left', got {driving_side!r:.40}"
+        )
     # (value, its domain, what the message says)
     ranges: dict[str, tuple[object, Callable[[float], bool], str]] = {
         "max_deflection_deg": (max_deflection_deg, lambda v: 0 < v < 90, "in (0, 90) degrees"),

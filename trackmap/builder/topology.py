@@ -42,17 +42,14 @@ __all__ = [
     "EdgeEnd",
     "NodeTopology",
     "Piece",
-    "SideEvidence",
     "TrackAttributes",
     "classify_node",
-    "direction_from_side",
     "direction_tag",
     "drop_duplicate_pieces",
     "find_crossings",
     "fouling_distance",
     "grade_separated",
     "merge_chains",
-    "parallel_neighbours",
     "parse_layer",
     "parse_maxspeed_mps",
     "propagate_directions",
@@ -426,101 +423,6 @@ def _straightest_disjoint(defl: dict[tuple[int, int], float]) -> list[tuple[int,
     options = [((0, 1), (2, 3)), ((0, 2), (1, 3)), ((0, 3), (1, 2))]
     best = min(options, key=lambda o: max(defl[o[0]], defl[o[1]]))
     return list(best)
-
-
-# -- running direction from the driving side ----------------------------------------------
-@dataclass(frozen=True, slots=True)
-class SideEvidence:
-    """Where an edge's neighbouring parallel tracks lie."""
-
-    samples: int
-    left: int
-    right: int
-
-
-def parallel_neighbours(
-    lines: Sequence[shapely.LineString],
-    candidates: Sequence[int],
-    *,
-    min_spacing_m: float,
-    max_spacing_m: float,
-    step_m: float = 5.0,
-    max_angle_deg: float = 20.0,
-) -> dict[int, SideEvidence]:
-    """For each candidate edge, count samples with a parallel track to its left or right.
-
-    A sample point every ``step_m`` along the edge has a neighbour when another edge lies
-    between ``min_spacing_m`` and ``max_spacing_m`` away, running parallel (within
-    ``max_angle_deg``, either orientation).
-    """
-    tree = shapely.STRtree(list(lines))
-    evidence: dict[int, SideEvidence] = {}
-    for e in candidates:
-        line = lines[e]
-        length = line.length
-        n = max(int(length // step_m), 1)
-        s = (np.arange(n) + 0.5) * length / n
-        pts = shapely.line_interpolate_point(line, s)
-        ahead = shapely.line_interpolate_point(line, np.minimum(s + 1.0, length))
-        behind = shapely.line_interpolate_point(line, np.maximum(s - 1.0, 0.0))
-        tx = shapely.get_x(ahead) - shapely.get_x(behind)
-        ty = shapely.get_y(ahead) - shapely.get_y(behind)
-        norm = np.hypot(tx, ty)
-        norm[norm == 0] = 1.0
-        tx, ty = tx / norm, ty / norm
-        left = right = 0
-        pt_idx, other_idx = tree.query(pts, predicate="dwithin", distance=max_spacing_m)
-        best: dict[int, tuple[float, int]] = {}
-        for k, o in zip(pt_idx.tolist(), other_idx.tolist(), strict=True):
-            if o == e:
-                continue
-            other = lines[o]
-            d = float(shapely.distance(pts[k], other))
-            if not min_spacing_m <= d <= max_spacing_m:
-                continue
-            along = other.project(pts[k])
-            q = other.interpolate(along)
-            q2 = other.interpolate(min(along + 1.0, other.length))
-            q1 = other.interpolate(max(along - 1.0, 0.0))
-            ox, oy = q2.x - q1.x, q2.y - q1.y
-            on = math.hypot(ox, oy)
-            if on == 0:
-                continue
-            cos = abs((ox * tx[k] + oy * ty[k]) / on)
-            if cos < math.cos(math.radians(max_angle_deg)):
-                continue
-            cross = tx[k] * (q.y - pts[k].y) - ty[k] * (q.x - pts[k].x)
-            side = 1 if cross > 0 else -1
-            if k not in best or d < best[k][0]:
-                best[k] = (d, side)
-        for _, side in best.values():
-            if side > 0:
-                left += 1
-            else:
-                right += 1
-        evidence[e] = SideEvidence(samples=n, left=left, right=right)
-    return evidence
-
-
-def direction_from_side(
-    ev: SideEvidence, driving_side: str, *, min_fraction: float = 0.5, dominance: float = 0.8
-) -> int:
-    """Running direction implied by the side of the neighbouring track (0 if unclear).
-
-    With right-hand running a track whose neighbour lies to its left (looking along the
-    edge) is run in the edge's direction (+1); with left-hand running, the opposite.
-    """
-    total = ev.left + ev.right
-    if ev.samples == 0 or total < min_fraction * ev.samples:
-        return 0
-    if ev.left >= dominance * total:
-        neighbour_left = True
-    elif ev.right >= dominance * total:
-        neighbour_left = False
-    else:
-        return 0
-    forward = neighbour_left if driving_side == "right" else not neighbour_left
-    return 1 if forward else -1
 
 
 # -- conflicts ----------------------------------------------------------------------------
