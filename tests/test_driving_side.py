@@ -29,6 +29,7 @@ from trackmap.builder.drivingside import (
     parallel_neighbours,
     resolve_driving_side,
 )
+from trackmap.check import check
 from trackmap.cli import main as trackmap_main
 
 _SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "synthville.py"
@@ -84,6 +85,9 @@ def test_a_side_given_against_the_tags_is_used_and_warned_of(cities, caplog):
             assert f.direction == e.direction  # (tags and two-way track do not move)
     (message,) = [r.getMessage() for r in caplog.records if "as asked" in r.getMessage()]
     assert str(left_file) in message and "left-hand running" in message
+    (finding,) = [f for f in check(forced).warnings if f.code == "driving_side"]
+    assert set(finding.edges) == inferred and "'left'" in finding.message
+    assert not [f for f in check(auto).warnings if f.code == "driving_side"]
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="trackmap"):
         trackmap.build(right_file, driving_side="right")

@@ -24,7 +24,9 @@ Warnings:
 * ``self_crossing_edge`` — an edge whose line crosses itself without a node there (not a
   conflict point: OSM should have a crossing node, or a bridge);
 * ``outside_bounds`` — an edge with vertices more than ``bounds_margin_m`` outside the
-  extent the source declared (its ``<bounds>`` or ``bbox``).
+  extent the source declared (its ``<bounds>`` or ``bbox``);
+* ``driving_side`` — the map was built for the other driving side than its tagged double
+  track shows (a side given by name): its untagged double track runs the wrong way round.
 
 Notes (facts about the map, not problems):
 
@@ -45,6 +47,7 @@ from typing import Any
 import numpy as np
 import shapely
 
+from trackmap.builder.drivingside import DrivingSideTally
 from trackmap.geometry import cumulative_length, deflection_deg, end_tangent
 from trackmap.kinds import ConflictKind, NodeClass
 from trackmap.model import Edge
@@ -223,6 +226,7 @@ def check(
                 )
     boundary = _boundaries(net, report)
     _inferred_directions(net, report, at)
+    _driving_side(net, report)
     _dangling(net, snap_m, report, boundary)
     _geometry(net, report, at, max_edge_m, bounds_margin_m)
     comps = net.components()
@@ -290,6 +294,29 @@ def _boundaries(net: TrackMap, report: CheckReport) -> set[int]:
 def _middle(e: Edge, at: Callable[[float, float], tuple[float, float]]) -> tuple[float, float]:
     """The middle of an edge along its line, degrees (lon, lat)."""
     return at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+
+
+def _driving_side(net: TrackMap, report: CheckReport) -> None:
+    """Warn of a map built for the side its own tagged double track contradicts."""
+    evidence = net.metadata.source.get("driving_side_evidence")
+    if not isinstance(evidence, dict):
+        return  # (a map file written before the builder kept the evidence)
+    tally = DrivingSideTally(
+        right_m=float(evidence.get("right_m", 0.0)), left_m=float(evidence.get("left_m", 0.0))
+    )
+    shown = tally.side()
+    if shown is None or shown == net.metadata.driving_side:
+        return
+    inferred = tuple(e.edge_id for e in net.edges if e.direction_source == "driving_side")
+    report.warnings.append(
+        Finding(
+            "driving_side",
+            f"built for {net.metadata.driving_side}-hand running, but its {tally.describe()}; "
+            f"{len(inferred)} untagged edges take their direction from the side built for "
+            f"(rebuild with driving_side='auto' or '{shown}')",
+            edges=inferred,
+        )
+    )
 
 
 def _inferred_directions(

@@ -2,7 +2,9 @@
 
 Three steps, one module each: :mod:`~trackmap.builder.sources` reads OSM XML/PBF, Overpass
 JSON or GeoJSON into plain records; :mod:`~trackmap.builder.topology` infers edges, node
-classes, running directions and crossings from them; :mod:`~trackmap.builder.assemble`
+classes, running directions and crossings from them (the direction of untagged double track
+from the driving side, :mod:`~trackmap.builder.drivingside`, which reads it from the tagged
+track); :mod:`~trackmap.builder.assemble`
 runs the steps and assembles the map. The query side (:mod:`trackmap.network`,
 :mod:`trackmap.routing`, :mod:`trackmap.mapfile`) never imports this package.
 """
