@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 import pytest
+import shapely
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -23,6 +24,7 @@ import trackmap
 from antikol import VehicleReport
 from antikol.positioning import PositioningConfig
 from antikol.positioning.branching import Arrivals, hold_at_switch
+from antikol.positioning.candidates import reach_to_own_tracks_m
 from antikol.positioning.matcher import Positioner
 from antikol.positioning.records import Hypothesis
 from tests._osm import FRAME, STRAIGHT_LINE, OsmBuilder, straight_fixture, switch_fixture
@@ -51,6 +53,7 @@ _OVER_SHORT_EDGE = "a_stray_fix_over_a_short_edge_past_a_junction.json"
 _DECIDED_BY_ONE_FIX = "a_stray_fix_decides_a_branch_at_walking_pace.json"
 _FAR_BESIDE_BRANCHES = "a_fix_far_beside_two_close_branches.json"
 _TOSS_UNDECIDED = "a_coin_toss_at_a_switch_undecided_at_the_next_fix.json"
+_REFUSED_RUN = "a_bias_jump_beyond_the_search_radius_of_a_refused_run.json"
 
 
 @pytest.fixture(scope="module")
@@ -549,6 +552,21 @@ def test_a_fix_beyond_the_search_radius_of_its_track_keeps_a_learnt_bias_hypothe
     assert all(p.status == "confident" for p in settled)
 
 
+def test_a_bias_jump_beyond_the_search_radius_keeps_the_tram_on_its_track():
+    # a harsher street receiver (8 m of lateral bias in canyons), an HFP log with an
+    # odometer: tram 40/2 runs at 14 m/s on 1084 beside 69, the other direction's track
+    # (4.1 m away). At t = 39 s its fixes jump from ~4 m to 18 m beside 1084, on 69's side,
+    # and drift out to 27 m: refused as outliers (all but every third), so no bias was
+    # learnt. At t = 50 s the fix lay 27.1 m from 1084, beyond the 25-m search, and 23.1 m
+    # from 69: only 69 was a candidate, the run of refusals restarted the vehicle on it,
+    # and from t = 51 s it was shown running wrong way on 69, confident (1.000), for 56 s
+    out = _replay_recorded(trackmap.load_default(), _REFUSED_RUN, "40/2")
+    moving = [p for p in out if p.t >= 12.0]
+    assert {(p.edge_id, p.direction) for p in moving} == {(1084, 1)}
+    assert not any(p.wrong_way for p in out)
+    assert all(p.status == "confident" for p in moving)
+
+
 def test_a_standing_tram_keeps_its_track_beside_a_corner_of_another():
     # street GPS (the simulator's urban model): a tram stands 20 s (t = 412-431 s) 17 m
     # from a bend of another track. A stray fix started a hypothesis there, on the bend's
@@ -965,3 +983,37 @@ def test_a_fix_far_beside_two_close_branches_does_not_decide_between_them():
     assert not any(p.edge_id in (422, 424) for p in out)
     assert any(p.edge_id == 454 for p in out if p.t <= 345.0)
     _assert_connected(net, [p for p in out if p.matched and p.t >= 325.0])
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    st.floats(-40.0, 40.0),  # across the straight track, m
+    st.floats(0.0, 300.0),  # along it, m
+    st.floats(-60.0, 60.0),  # from the place the hypothesis has run to, along the track, m
+    st.one_of(st.just(math.nan), st.floats(0.0, 359.0)),  # the course, degrees
+    st.booleans(),
+)
+def test_a_refusing_vehicles_own_track_is_searched_beside_where_it_ran(
+    straight, beside_m, along_m, off_run_m, course, refusing
+):
+    edge = straight.edges[0]  # (drawn northwards: running +1 is a course of 0 degrees)
+    point = edge.geometry.interpolate(along_m)
+    fixes = (np.array([point.x + beside_m]), np.array([point.y]), np.array([course]))
+    # one hypothesis on the edge, run 10 m since its place; one slot free
+    kept = (np.array([[2 * edge.edge_id, -1]]), np.array([[along_m - off_run_m - 10.0, 0.0]]))
+
+    def radius(states_offsets, refusing_now):
+        return reach_to_own_tracks_m(
+            straight, states_offsets, np.array([10.0]), np.array([refusing_now]), fixes,
+            along_tolerance_m=25.0, course_tolerance_deg=30.0, cap_m=30.0,
+        )[0]  # fmt: skip
+
+    distance = float(edge.geometry.distance(shapely.Point(fixes[0][0], fixes[1][0])))
+    turned = math.isfinite(course) and min(course, 360.0 - course) > 30.0
+    searched = refusing and abs(off_run_m) <= 25.0 and not turned and distance + 1.0 <= 30.0
+    edges_of_tolerances = (abs(abs(off_run_m) - 25.0) < 1e-6) or (
+        math.isfinite(course) and abs(min(course, 360.0 - course) - 30.0) < 1e-6
+    )
+    if not edges_of_tolerances:
+        assert radius(kept, refusing) == (pytest.approx(distance + 1.0) if searched else 0.0)
+    assert radius((np.array([[-1, -1]]), np.zeros((1, 2))), True) == 0.0

@@ -17,7 +17,7 @@ import shapely.ops
 
 from trackmap import TrackMap
 
-__all__ = ["Candidates", "TurningLoop", "find_candidates", "loop_edges"]
+__all__ = ["Candidates", "TurningLoop", "find_candidates", "loop_edges", "reach_to_own_tracks_m"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -132,3 +132,79 @@ def find_candidates(
     )
     keep = np.lexsort((merged.edge_id, merged.point))
     return Candidates(*(a[keep] for a in merged))
+
+
+def reach_to_own_tracks_m(
+    net: TrackMap,
+    hypotheses: tuple[IntArray, FloatArray],
+    run_m: FloatArray,
+    refusing: npt.NDArray[np.bool_],
+    fixes: tuple[FloatArray, FloatArray, FloatArray],
+    *,
+    along_tolerance_m: float,
+    course_tolerance_deg: float,
+    cap_m: float,
+) -> FloatArray:
+    """The search radius that takes in the tracks of a vehicle's own hypotheses while it
+    refuses fixes: the fix's distance to the nearest of them plus a metre, at most
+    ``cap_m``, where the fix lies beside the place the hypothesis has run to and the
+    vehicle still runs the way it does.
+
+    A jump of the GPS bias can carry a run of fixes beyond the search radius of the track
+    the vehicle is on, while the other direction's track, a few metres nearer, stays
+    within it: the vehicle's own track must stay a candidate, or the restart that follows a
+    run of refused fixes can only land on the other track, running wrong way. A vehicle
+    that has left its track (a turn the map does not connect) shows it otherwise: its
+    course turns away from the track, and its fixes fall behind the place it would have
+    run to along it. The search is not widened for those.
+
+    Parameters
+    ----------
+    net : TrackMap
+    hypotheses : (ndarray of int, ndarray of float), shapes (n, k)
+        Each fix's vehicle's hypotheses: state ids (negative: an empty slot) and offsets
+        along their edges, m.
+    run_m : ndarray of float
+        How far each vehicle has run since its hypotheses' time, m.
+    refusing : ndarray of bool
+        The vehicles that refused their last fix.
+    fixes : (ndarray of float, ndarray of float, ndarray of float)
+        The fixes in the map's local frame (x, y, m) and the course to weigh of each
+        (degrees; NaN where none is, e.g. at a standstill).
+    along_tolerance_m : float, keyword-only
+        The largest distance along the track between the fix and the place run to, m.
+    course_tolerance_deg : float, keyword-only
+        The largest angle between the course and the hypothesis' way along its track, deg.
+    cap_m : float, keyword-only
+        The largest radius given, m.
+
+    Returns
+    -------
+    ndarray of float
+        One radius per fix, m: 0 where the vehicle does not refuse fixes or no hypothesis
+        qualifies.
+    """
+    states, offsets = hypotheses
+    xs, ys, course = fixes
+    out = np.zeros(len(xs))
+    for i in np.flatnonzero(refusing).tolist():
+        fix = shapely.Point(xs[i], ys[i])
+        best = math.inf
+        for state, offset in zip(states[i].tolist(), offsets[i].tolist(), strict=True):
+            if state < 0:
+                continue
+            line = net.edge(state >> 1).geometry  # (state id: edge, way in the low bit)
+            backwards = bool(state & 1)
+            at = line.project(fix)
+            if abs(at - (offset + (-run_m[i] if backwards else run_m[i]))) > along_tolerance_m:
+                continue
+            if math.isfinite(course[i]):
+                a = line.interpolate(max(at - 1.0, 0.0))
+                b = line.interpolate(min(at + 1.0, line.length))
+                way = math.degrees(math.atan2(b.x - a.x, b.y - a.y)) + (180.0 if backwards else 0.0)
+                if abs((course[i] - way + 180.0) % 360.0 - 180.0) > course_tolerance_deg:
+                    continue
+            best = min(best, line.distance(fix))
+        if best + 1.0 <= cap_m:
+            out[i] = best + 1.0
+    return out

@@ -45,6 +45,7 @@ along-track innovation beyond the gate is forgiven likewise (:mod:`antikol.posit
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from collections import Counter
@@ -59,7 +60,7 @@ from antikol.gcpause import gc_paused
 from antikol.positioning.alongtrack import run_track_filters
 from antikol.positioning.biasscale import learn_bias_sigma
 from antikol.positioning.branching import TIE_NATS, Arrivals, tossed_lineages
-from antikol.positioning.candidates import Candidates, find_candidates, loop_edges
+from antikol.positioning.candidates import find_candidates, loop_edges, reach_to_own_tracks_m
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.coursecheck import check_courses, restart_doubted
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
@@ -473,16 +474,22 @@ class Positioner:
         xs: FloatArray,
         ys: FloatArray,
     ) -> None:
-        def find(x: FloatArray, y: FloatArray, radius: FloatArray) -> Candidates:
-            return find_candidates(self.net, self._loops, x, y, radius)
-
+        find = functools.partial(find_candidates, self.net, self._loops)
         # a course the run between the vehicle's own fixes shows wrong: ignored or turned round
         course = np.fromiter((r.course_deg for r in reports), float, len(reports))
         course = restart_doubted(self._f, check_courses(self._f, self.config, reports, rows, t,
                                  speed, xs, ys, course, self.stats), self.stats)  # fmt: skip
+        f, c = self._f, self.config
+        moving = speed >= c.min_speed_for_course_mps
+        reach_out = reach_to_own_tracks_m(  # (see there: a jump of the GPS bias)
+            self.net, (f.hs[rows], f.ho[rows]), speed * np.maximum(t - f.t[rows], 0.0),
+            f.rejected[rows] > 0, (xs, ys, np.where(moving, course, np.nan)),
+            along_tolerance_m=c.search_radius_m, course_tolerance_deg=30.0,
+            cap_m=2.0 * c.search_radius_m,
+        )  # fmt: skip
         scored = score_fixes(self._f, self.reach, self.config, find, self.reach.headings.at,
                              reports, rows, t, speed, odo, xs, ys,
-                             course_deg=course)  # fmt: skip
+                             course_deg=course, reach_out_m=reach_out)  # fmt: skip
         self.stats.update(scored.stats)
         self._f.rejected[rows] = scored.rejected
         out = scored.stuck

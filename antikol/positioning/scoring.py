@@ -117,6 +117,7 @@ def score_fixes(
     ys: FloatArray,
     *,
     course_deg: FloatArray | None = None,
+    reach_out_m: FloatArray | None = None,
 ) -> Scored:
     """Score the candidate states of one fix per vehicle (see the module).
 
@@ -139,6 +140,9 @@ def score_fixes(
     course_deg : ndarray of float, optional
         The course to weigh of each, degrees (default: as reported); NaN: the vehicle is
         placed as if its receiver gave none (:mod:`antikol.positioning.coursecheck`).
+    reach_out_m : ndarray of float, optional
+        A search radius each fix gets at least, m (its vehicle's own tracks while it
+        refuses fixes; :func:`~antikol.positioning.candidates.reach_to_edges_m`).
 
     Returns
     -------
@@ -174,7 +178,10 @@ def score_fixes(
     filled = fleet.hs[rows] >= 0
     learnt = np.where(filled, np.hypot(fleet.bx[rows], fleet.by[rows]), 0.0).max(axis=1)
     beyond = np.clip(learnt - 2.0 * stated_bias_sigma, 0.0, c.search_radius_m)
-    found = find(xs, ys, radius + beyond)
+    search = radius + beyond
+    if reach_out_m is not None:
+        search = np.maximum(search, reach_out_m)
+    found = find(xs, ys, search)
     # one candidate state per (candidate place, running direction)
     cv = np.repeat(found.point, 2)  # report index of each candidate state
     edge = np.repeat(found.edge_id, 2)
