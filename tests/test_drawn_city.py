@@ -9,36 +9,21 @@ rest on it.
 
 from __future__ import annotations
 
-import functools
-import importlib.util
 import math
-import sys
 from collections import Counter
-from pathlib import Path
 
 import pytest
 
 import trackmap
+from tests._synthville import synthville
 from trackmap.check import check
-
-_SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "synthville.py"
-
-
-@functools.cache
-def _synthville():
-    spec = importlib.util.spec_from_file_location("synthville", _SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up while defined
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.fixture(scope="module")
 def drawn(tmp_path_factory):
     def build(untagged_m: float) -> trackmap.TrackMap:
         path = tmp_path_factory.mktemp("synthville") / "synthville.osm"
-        _synthville().main(["-o", str(path), "--untagged-m", str(untagged_m)])
+        synthville().main(["-o", str(path), "--untagged-m", str(untagged_m)])
         return trackmap.build(path, kinds=("tram",), driving_side="right")
 
     return {m: build(m) for m in (400.0, 0.0)}
@@ -106,4 +91,4 @@ def test_check_names_the_edges_whose_direction_was_inferred(drawn):
 
 def test_the_drawing_refuses_a_stretch_longer_than_its_line():
     with pytest.raises(ValueError, match="untagged_m"):
-        _synthville().draw_synthville(untagged_m=900.0)
+        synthville().draw_synthville(untagged_m=900.0)

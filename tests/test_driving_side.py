@@ -8,11 +8,9 @@ left-hand city it must recognise.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import logging
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +21,7 @@ from hypothesis import strategies as st
 
 import trackmap
 from tests._osm import OsmBuilder
+from tests._synthville import synthville
 from trackmap.builder.drivingside import (
     DrivingSideTally,
     SideEvidence,
@@ -32,24 +31,13 @@ from trackmap.builder.drivingside import (
 from trackmap.check import check
 from trackmap.cli import main as trackmap_main
 
-_SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "synthville.py"
-
-
-def _synthville():
-    spec = importlib.util.spec_from_file_location("synthville_sides", _SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up while defined
-    spec.loader.exec_module(module)
-    return module
-
 
 @pytest.fixture(scope="module")
 def cities(tmp_path_factory):
     """Synthville (right-hand, 400 m untagged) and its mirror image (left-hand) as files."""
     folder = tmp_path_factory.mktemp("sides")
     right, left = folder / "right.osm", folder / "left.osm"
-    town = _synthville()
+    town = synthville()
     town.main(["-o", str(right)])
     town.main(["-o", str(left), "--left-hand"])
     return right, left
