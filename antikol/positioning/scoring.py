@@ -142,7 +142,7 @@ def score_fixes(
         placed as if its receiver gave none (:mod:`antikol.positioning.coursecheck`).
     reach_out_m : ndarray of float, optional
         A search radius each fix gets at least, m (its vehicle's own tracks while it
-        refuses fixes; :func:`~antikol.positioning.candidates.reach_to_edges_m`).
+        refuses fixes; :func:`~antikol.positioning.candidates.reach_to_own_tracks_m`).
 
     Returns
     -------
