@@ -988,7 +988,7 @@ def test_a_fix_far_beside_two_close_branches_does_not_decide_between_them():
 @settings(max_examples=80, deadline=None)
 @given(
     st.floats(-40.0, 40.0),  # across the straight track, m
-    st.floats(0.0, 300.0),  # along it, m
+    st.floats(100.0, 1800.0),  # along it (2 km long), m
     st.floats(-60.0, 60.0),  # from the place the hypothesis has run to, along the track, m
     st.one_of(st.just(math.nan), st.floats(0.0, 359.0)),  # the course, degrees
     st.booleans(),
@@ -1017,3 +1017,25 @@ def test_a_refusing_vehicles_own_track_is_searched_beside_where_it_ran(
     if not edges_of_tolerances:
         assert radius(kept, refusing) == (pytest.approx(distance + 1.0) if searched else 0.0)
     assert radius((np.array([[-1, -1]]), np.zeros((1, 2))), True) == 0.0
+
+
+def test_a_refusing_vehicles_next_track_is_searched_past_its_edges_end(tmp_path):
+    # a hypothesis 10 m before the end of its edge (at a switch), run 20 m since: the place
+    # it ran to is 10 m onto the next edge, and a fix 28 m beside that place must bring the
+    # next edge in (from the end of its own edge alone, the fix lies 29.7 m off: beyond the
+    # cap)
+    b = OsmBuilder()
+    joint = b.node(0.0, 500.0)
+    b.line([b.node(0.0, -500.0), joint], oneway="yes")
+    b.line([joint, b.node(0.0, 1500.0)], oneway="yes")
+    b.line([joint, b.node(-4.0, 550.0), b.node(-40.0, 650.0)], oneway="yes")  # (a switch)
+    net = trackmap.build(b.write_xml(tmp_path / "two.osm"))
+    first = next(e for e in net.edges if e.way_ids == (1,))
+    then = next(e for e in net.edges if e.way_ids == (2,)).geometry.interpolate(10.0)
+    place = 2 * first.edge_id, first.length_m - 10.0
+    fixes = (np.array([then.x + 28.0]), np.array([then.y]), np.array([0.0]))  # (course north)
+    radius = reach_to_own_tracks_m(
+        net, (np.array([[place[0]]]), np.array([[place[1]]])), np.array([20.0]),
+        np.array([True]), fixes, along_tolerance_m=25.0, course_tolerance_deg=30.0, cap_m=30.0,
+    )  # fmt: skip
+    assert radius[0] == pytest.approx(29.0)

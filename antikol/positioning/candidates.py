@@ -147,8 +147,8 @@ def reach_to_own_tracks_m(
 ) -> FloatArray:
     """The search radius that takes in the tracks of a vehicle's own hypotheses while it
     refuses fixes: the fix's distance to the nearest of them plus a metre, at most
-    ``cap_m``, where the fix lies beside the place the hypothesis has run to and the
-    vehicle still runs the way it does.
+    ``cap_m``, where the fix lies beside the place the hypothesis has run to (on its edge,
+    or on the edges it runs on to) and the vehicle still runs the way it does.
 
     A jump of the GPS bias can carry a run of fixes beyond the search radius of the track
     the vehicle is on, while the other direction's track, a few metres nearer, stays
@@ -193,18 +193,31 @@ def reach_to_own_tracks_m(
         for state, offset in zip(states[i].tolist(), offsets[i].tolist(), strict=True):
             if state < 0:
                 continue
-            line = net.edge(state >> 1).geometry  # (state id: edge, way in the low bit)
-            backwards = bool(state & 1)
-            at = line.project(fix)
-            if abs(at - (offset + (-run_m[i] if backwards else run_m[i]))) > along_tolerance_m:
-                continue
-            if math.isfinite(course[i]):
-                a = line.interpolate(max(at - 1.0, 0.0))
-                b = line.interpolate(min(at + 1.0, line.length))
-                way = math.degrees(math.atan2(b.x - a.x, b.y - a.y)) + (180.0 if backwards else 0.0)
-                if abs((course[i] - way + 180.0) % 360.0 - 180.0) > course_tolerance_deg:
+            # every way the hypothesis can have run on, onto the next edges too (state id:
+            # the edge, and the way in the low bit)
+            edge, way = state >> 1, -1 if state & 1 else 1
+            # from up to the tolerance behind the place on its edge (a fix lagging along the
+            # track) to beyond it (a fix farther on would project short)
+            length = net.edge(edge).length_m
+            start = (
+                max(offset - along_tolerance_m, 0.0)
+                if way == 1
+                else min(offset + along_tolerance_m, length)
+            )
+            back = abs(offset - start)
+            reach = back + run_m[i] + 2.0 * along_tolerance_m
+            for path in net.paths_ahead(edge, start, way, reach, respect_direction=False):
+                line = net.path_geometry(path)  # (as the hypothesis runs)
+                at = line.project(fix)
+                if abs(at - back - run_m[i]) > along_tolerance_m or line.length == 0.0:
                     continue
-            best = min(best, line.distance(fix))
+                if math.isfinite(course[i]):
+                    a = line.interpolate(max(at - 1.0, 0.0))
+                    b = line.interpolate(min(at + 1.0, line.length))
+                    heading = math.degrees(math.atan2(b.x - a.x, b.y - a.y))
+                    if abs((course[i] - heading + 180.0) % 360.0 - 180.0) > course_tolerance_deg:
+                        continue
+                best = min(best, line.distance(fix))
         if best + 1.0 <= cap_m:
             out[i] = best + 1.0
     return out
