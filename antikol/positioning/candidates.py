@@ -196,9 +196,14 @@ def reach_to_own_tracks_m(
             # every way the hypothesis can have run on, onto the next edges too (state id:
             # the edge, and the way in the low bit)
             edge, way = state >> 1, -1 if state & 1 else 1
+            # (no path of the length searched comes within the cap of a fix this far from
+            # the place: a receiver gone wild, e.g. jammed, costs one distance per hypothesis)
+            line = net.edge(edge).geometry
+            if line.interpolate(offset).distance(fix) > cap_m + run_m[i] + 4.0 * along_tolerance_m:
+                continue
             # from up to the tolerance behind the place on its edge (a fix lagging along the
             # track) to beyond it (a fix farther on would project short)
-            length = net.edge(edge).length_m
+            length = line.length
             start = (
                 max(offset - along_tolerance_m, 0.0)
                 if way == 1
@@ -207,17 +212,17 @@ def reach_to_own_tracks_m(
             back = abs(offset - start)
             reach = back + run_m[i] + 2.0 * along_tolerance_m
             for path in net.paths_ahead(edge, start, way, reach, respect_direction=False):
-                line = net.path_geometry(path)  # (as the hypothesis runs)
-                at = line.project(fix)
-                if abs(at - back - run_m[i]) > along_tolerance_m or line.length == 0.0:
+                ran = net.path_geometry(path)  # (as the hypothesis runs)
+                at = ran.project(fix)
+                if abs(at - back - run_m[i]) > along_tolerance_m or ran.length == 0.0:
                     continue
                 if math.isfinite(course[i]):
-                    a = line.interpolate(max(at - 1.0, 0.0))
-                    b = line.interpolate(min(at + 1.0, line.length))
+                    a = ran.interpolate(max(at - 1.0, 0.0))
+                    b = ran.interpolate(min(at + 1.0, ran.length))
                     heading = math.degrees(math.atan2(b.x - a.x, b.y - a.y))
                     if abs((course[i] - heading + 180.0) % 360.0 - 180.0) > course_tolerance_deg:
                         continue
-                best = min(best, line.distance(fix))
+                best = min(best, ran.distance(fix))
         if best + 1.0 <= cap_m:
             out[i] = best + 1.0
     return out
