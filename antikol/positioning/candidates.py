@@ -23,6 +23,10 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 #: A fix may lie this far beyond an edge's end (along it) and still be a candidate of it, m.
 END_OVERSHOOT_M = 2.0
+#: A refusing vehicle whose course turned farther than this from its track's way has left
+#: the track (:func:`reach_to_own_tracks_m`), degrees: a GPS bias moves fixes, not the
+#: course, which a moving receiver measures to a few degrees.
+OWN_TRACK_COURSE_DEG = 30.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,7 +146,7 @@ def reach_to_own_tracks_m(
     fixes: tuple[FloatArray, FloatArray, FloatArray],
     *,
     along_tolerance_m: float,
-    course_tolerance_deg: float,
+    course_tolerance_deg: float = OWN_TRACK_COURSE_DEG,
     cap_m: float,
 ) -> FloatArray:
     """The search radius that takes in the tracks of a vehicle's own hypotheses while it

@@ -484,8 +484,7 @@ class Positioner:
         reach_out = reach_to_own_tracks_m(  # (see there: a jump of the GPS bias)
             self.net, (f.hs[rows], f.ho[rows]), speed * np.maximum(t - f.t[rows], 0.0),
             f.rejected[rows] > 0, (xs, ys, np.where(moving, course, np.nan)),
-            along_tolerance_m=c.search_radius_m, course_tolerance_deg=30.0,
-            cap_m=2.0 * c.search_radius_m,
+            along_tolerance_m=c.search_radius_m, cap_m=2.0 * c.search_radius_m,
         )  # fmt: skip
         scored = score_fixes(self._f, self.reach, self.config, find, self.reach.headings.at,
                              reports, rows, t, speed, odo, xs, ys,
