@@ -119,8 +119,9 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", type=Path, required=True, help="map file to write")
     b.add_argument(
         "--kinds",
-        default="tram",
-        help="comma-separated railway kinds: tram, light_rail, rail, subway, narrow_gauge",
+        default="tram,light_rail",
+        help="comma-separated railway kinds: tram, light_rail, rail, subway, narrow_gauge "
+        "(default tram,light_rail)",
     )
     b.add_argument(
         "--driving-side",

@@ -52,7 +52,7 @@ _GEOD = Geod(ellps="WGS84")
 def build(
     source: str | os.PathLike[str],
     *,
-    kinds: tuple[str, ...] | list[str] | str = ("tram",),
+    kinds: tuple[str, ...] | list[str] | str = ("tram", "light_rail"),
     driving_side: str = "auto",
     max_deflection_deg: float = 35.0,
     tangent_probe_m: float = 3.0,
@@ -68,8 +68,9 @@ def build(
     source : path-like
         OSM XML (``.osm``), OSM PBF (``.osm.pbf``), Overpass JSON or GeoJSON.
     kinds : sequence of str or comma-separated str
-        ``railway=`` values to keep: ``tram`` (default), ``light_rail``, ``rail``,
-        ``subway``, ``narrow_gauge``.
+        ``railway=`` values to keep: ``tram``, ``light_rail`` (both by default: the
+        vehicles this library is for, and mappers tag one city's light rail as the other's
+        tram), ``rail``, ``subway``, ``narrow_gauge``.
     driving_side : {"auto", "right", "left"}
         Side trams keep to on double track; sets the running direction of untagged
         double track. ``auto`` (default): the side the source's tagged one-way double
