@@ -20,14 +20,12 @@ from pathlib import Path
 from trackmap.defaults import load_default
 from trackmap.errors import MapFileError
 from trackmap.network import TrackMap
+from trackmap.sourcefiles import is_osm_extract
 from trackmap.storage import load
 
 __all__ = ["load_named"]
 
 logger = logging.getLogger(__name__)
-
-#: Names of OSM extracts, whatever osmium reads (a map file is JSON).
-_OSM_SUFFIXES = (".osm.pbf", ".pbf", ".osm", ".osm.bz2", ".osm.gz", ".o5m")
 
 
 def load_named(spec: str) -> TrackMap | None:
@@ -59,7 +57,7 @@ def load_named(spec: str) -> TrackMap | None:
         from trackmap.synthetic import demo_network  # the build side, only when asked
 
         return demo_network().build()
-    if name.endswith(_OSM_SUFFIXES):
+    if is_osm_extract(name):  # (a map file is JSON)
         return _built(spec)
     try:
         return load(spec)

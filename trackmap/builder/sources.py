@@ -53,6 +53,7 @@ from trackmap.errors import (
     SourceFormatError,
 )
 from trackmap.optional import require
+from trackmap.sourcefiles import OSMIUM_SUFFIXES
 
 __all__ = [
     "INT64_MAX",
@@ -81,8 +82,6 @@ logger = logging.getLogger(__name__)
 
 #: Files larger than this show a progress bar while read, bytes.
 PROGRESS_BYTES = 20_000_000
-
-OSMIUM_SUFFIXES = (".osm.pbf", ".pbf", ".osm", ".osm.bz2", ".osm.gz", ".o5m", ".osc")
 
 
 def detect_format(path: Path) -> str:
