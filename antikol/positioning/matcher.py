@@ -479,13 +479,15 @@ class Positioner:
         course = np.fromiter((r.course_deg for r in reports), float, len(reports))
         course = restart_doubted(self._f, check_courses(self._f, self.config, reports, rows, t,
                                  speed, xs, ys, course, self.stats), self.stats)  # fmt: skip
-        f, c = self._f, self.config
-        moving = speed >= c.min_speed_for_course_mps
-        reach_out = reach_to_own_tracks_m(  # (see there: a jump of the GPS bias)
-            self.net, (f.hs[rows], f.ho[rows]), speed * np.maximum(t - f.t[rows], 0.0),
-            f.rejected[rows] > 0, (xs, ys, np.where(moving, course, np.nan)),
-            along_tolerance_m=c.search_radius_m, cap_m=2.0 * c.search_radius_m,
-        )  # fmt: skip
+        f, c, reach_out = self._f, self.config, None
+        refusing = f.rejected[rows] > 0
+        if refusing.any():  # (see there: a jump of the GPS bias)
+            moving = speed >= c.min_speed_for_course_mps
+            reach_out = reach_to_own_tracks_m(
+                self.net, (f.hs[rows], f.ho[rows]), speed * np.maximum(t - f.t[rows], 0.0),
+                refusing, (xs, ys, np.where(moving, course, np.nan)),
+                along_tolerance_m=c.search_radius_m, cap_m=2.0 * c.search_radius_m,
+            )  # fmt: skip
         scored = score_fixes(self._f, self.reach, self.config, find, self.reach.headings.at,
                              reports, rows, t, speed, odo, xs, ys,
                              course_deg=course, reach_out_m=reach_out)  # fmt: skip
