@@ -8,10 +8,13 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import trackmap
 from antikol import VehicleReport
 from antikol.errors import InvalidArgumentError
+from antikol.positioning.candidates import find_candidates, loop_edges
 from antikol.positioning.matcher import DiscreteFix, FixPoint, Positioner, PositioningConfig
 from tests._osm import FRAME, STRAIGHT_LINE, OsmBuilder, straight_fixture, switch_fixture
 from tests._paths import reports_along
@@ -185,6 +188,53 @@ def test_a_turning_loop_is_followed_onto_the_track_it_leads_to():
         wrong = [p for p in after if p.edge_id == 582]
         assert not wrong, f"seed {seed}: {len(wrong)} fixes running wrong way on 582"
         assert all(not p.wrong_way for p in out)
+
+
+_KRAKOW = trackmap.load_default()
+_LOOPS = loop_edges(_KRAKOW, 25.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.sampled_from(sorted(_LOOPS)),
+    st.floats(min_value=0.0, max_value=1.0),
+    st.floats(min_value=-14.0, max_value=14.0),
+)
+def test_a_fix_beside_a_turning_loop_has_a_candidate_there(edge_id, share, lateral_m):
+    """A fix up to 14 m beside any place of a turning loop has a candidate on the loop
+    near that place (within 6 m along it: the inside of a tight curve projects a little
+    off), whichever part of the loop lies nearest. Where a loop closes, the fix beside
+    its end lies nearer its start, and beyond it: the start was refused as an overshoot
+    and the end, the loop's other half, was never looked at (Kraków's 1038 and 1035)."""
+    loop = _LOOPS[edge_id].geometry
+    along_m = 3.0 + share * (loop.length - 6.0)
+    a, p, b = (loop.interpolate(along_m + d) for d in (-0.5, 0.0, 0.5))
+    tx, ty = b.x - a.x, b.y - a.y
+    norm = float(np.hypot(tx, ty))
+    x, y = p.x - lateral_m * ty / norm, p.y + lateral_m * tx / norm  # (left positive)
+    found = find_candidates(_KRAKOW, _LOOPS, np.array([x]), np.array([y]), np.array([25.0]))
+    offsets = found.offset_m[found.edge_id == edge_id]
+    assert np.any(np.abs(offsets - along_m) < 6.0), (along_m, offsets)
+    heading = found.heading_deg[found.edge_id == edge_id]
+    truth = [_KRAKOW.heading_at(edge_id, float(o)) for o in offsets]
+    assert heading == pytest.approx(truth, abs=1e-9)  # (true north, as every candidate's)
+
+
+def test_a_tram_leaving_a_loop_beside_its_start_is_not_restarted_wrong_way():
+    # a harsher street receiver (10 m of lateral bias in canyons), an HFP log with an
+    # odometer: 40/7 runs from 287 round the loop 1038 onto 1036, which runs beside 287 the
+    # other way. Near the loop's end its fixes lay 12 m off 1038 and 5-6 m from 287, nearer
+    # the loop's start than its end: 1038's nearest point was its start, refused as an
+    # overshoot, and its other half was not searched, so the fixes were unreachable; three
+    # in a row restarted the tram on 287, where it was shown running wrong way (11 fixes)
+    from tests._recorded import assert_connected, replay_recorded
+
+    out = replay_recorded(_KRAKOW, "a_fix_beyond_a_loop_start_beside_its_end.json", "40/7")
+    shown = [p for p in out if p.edge_id is not None]
+    path = [k for k, _ in itertools.groupby((p.edge_id, int(p.direction)) for p in shown)]
+    assert path[-5:] == [(287, 1), (1038, 1), (1036, 1), (1037, 1), (781, 1)]
+    assert not any(p.wrong_way for p in out)
+    assert_connected(_KRAKOW, shown)
 
 
 def test_a_position_carried_past_a_switch_takes_the_branch_the_hypotheses_hold(tmp_path):

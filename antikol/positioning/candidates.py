@@ -96,34 +96,25 @@ def find_candidates(
     )
     if not loops:
         return found
-    extra = [k for k, e in enumerate(found.edge_id.tolist()) if e in loops]
+    # (from every edge in reach, before the overshoot test: where a loop closes, a fix
+    # beyond its start lies beside its end, and the start's overshoot must not hide that)
+    in_reach = batch.distance_m <= radius[batch.point]
+    extra = [k for k in np.flatnonzero(in_reach).tolist() if int(batch.edge_id[k]) in loops]
     if not extra:
         return found
     rows: list[tuple[int, int, float, float, float]] = []
     for k in extra:
-        e = int(found.edge_id[k])
-        loop = loops[e]
-        geom = loop.geometry
-        i = int(found.point[k])
-        pt_geom = shapely.Point(xs[i], ys[i])
-        if found.offset_m[k] < loop.half_m:
-            start_m, part = loop.half_m, loop.second_half
-        else:
-            start_m, part = 0.0, loop.first_half
-        off = start_m + float(part.project(pt_geom))
-        p = geom.interpolate(off)
-        dist = float(p.distance(pt_geom))
-        if dist > radius[i] or abs(off - found.offset_m[k]) < 2.0 * radius[i]:
+        e = int(batch.edge_id[k])
+        i = int(batch.point[k])
+        off, lateral_m, overshoot_m, heading_deg = _other_half(
+            net, loops[e], e, xs[i], ys[i], float(batch.offset_m[k])
+        )
+        if math.hypot(lateral_m, overshoot_m) > radius[i] or overshoot_m > END_OVERSHOOT_M:
             continue
-        a, b = (
-            geom.interpolate(max(off - 0.5, 0.0)),
-            geom.interpolate(min(off + 0.5, geom.length)),
-        )
-        tx, ty = b.x - a.x, b.y - a.y
-        side = tx * (pt_geom.y - p.y) - ty * (pt_geom.x - p.x)
-        rows.append(
-            (i, e, off, math.copysign(dist, side), math.degrees(math.atan2(tx, ty)) % 360.0)
-        )
+        if abs(off - float(batch.offset_m[k])) < 2.0 * radius[i]:
+            continue  # (the same place as the edge's nearest point)
+        rows.append((i, e, off, math.copysign(math.hypot(lateral_m, overshoot_m), lateral_m),
+                     heading_deg))  # fmt: skip
     if not rows:
         return found
     add = np.array(rows, dtype=float)
@@ -136,6 +127,29 @@ def find_candidates(
     )
     keep = np.lexsort((merged.edge_id, merged.point))
     return Candidates(*(a[keep] for a in merged))
+
+
+def _other_half(
+    net: TrackMap, loop: TurningLoop, edge_id: int, x: float, y: float, nearest_m: float
+) -> tuple[float, float, float, float]:
+    """The nearest place of a fix on the half of a loop that does not hold its nearest
+    point: offset along the edge, signed lateral offset (left positive) and overshoot
+    beyond the half's ends, m, and the true heading of the edge there, degrees."""
+    geom = loop.geometry
+    point = shapely.Point(x, y)
+    if nearest_m < loop.half_m:
+        start_m, part = loop.half_m, loop.second_half
+    else:
+        start_m, part = 0.0, loop.first_half
+    off = start_m + float(part.project(point))
+    p = geom.interpolate(off)
+    a = geom.interpolate(max(off - 0.5, 0.0))
+    b = geom.interpolate(min(off + 0.5, geom.length))
+    tx, ty = b.x - a.x, b.y - a.y
+    tn = math.hypot(tx, ty) or 1.0
+    lateral_m = (tx * (y - p.y) - ty * (x - p.x)) / tn
+    overshoot_m = math.sqrt(max(math.dist((x, y), (p.x, p.y)) ** 2 - lateral_m**2, 0.0))
+    return off, lateral_m, overshoot_m, net.heading_at(edge_id, off)
 
 
 def reach_to_own_tracks_m(
