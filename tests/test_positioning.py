@@ -237,6 +237,27 @@ def test_a_tram_leaving_a_loop_beside_its_start_is_not_restarted_wrong_way():
     assert_connected(_KRAKOW, shown)
 
 
+def test_a_start_between_the_two_sides_of_a_loop_is_not_shown_confident(tmp_path):
+    # Synthville's loop line (edge 13, 901 m) goes out and comes back beside itself: its two
+    # sides are one edge. A harsher street receiver (6 m of canyon bias), 40/7 appears
+    # standing between them; the sides' hypotheses held 0.70 (the wrong one) and 0.29, but
+    # counted as one place (one edge, one direction) they made 0.999: the tram was shown
+    # confident on the wrong side and moved 218 m along the loop at the next fix, when its
+    # course told the side (a window no route connects)
+    from tests._recorded import assert_connected, replay_recorded
+    from tests._synthville import synthville
+
+    path = tmp_path / "synthville.osm"
+    synthville().main(["-o", str(path), "--untagged-m", "0"])
+    net = trackmap.build(path)
+    out = replay_recorded(net, "a_start_between_the_two_sides_of_a_loop.json", "40/7")
+    assert out[0].status == "ambiguous" and out[0].probability < 0.8  # (placed, not shown)
+    moving = out[1:]
+    assert all(p.status == "confident" and p.edge_id == 13 for p in moving)
+    assert all(340.0 < p.offset_m < 460.0 for p in moving)
+    assert_connected(net, moving)
+
+
 def test_a_position_carried_past_a_switch_takes_the_branch_the_hypotheses_hold(tmp_path):
     # the estimate is moved from the trunk past the switch; without a route it used to take
     # the straight branch, confident, although the other hypotheses were on the diverging one

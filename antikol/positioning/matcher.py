@@ -46,7 +46,6 @@ along-track innovation beyond the gate is forgiven likewise (:mod:`antikol.posit
 from __future__ import annotations
 
 import functools
-import logging
 import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
@@ -64,31 +63,26 @@ from antikol.positioning.candidates import find_candidates, loop_edges, reach_to
 from antikol.positioning.config import PositioningConfig
 from antikol.positioning.coursecheck import check_courses, restart_doubted
 from antikol.positioning.deadreckoning import advance, dead_reckon, edge_mass
-from antikol.positioning.estimates import NOT_MEASURED
-from antikol.positioning.feedfaults import stale_fixes, unusable_odometers
 from antikol.positioning.fixerror import FIX_ERROR_FIELDS
 from antikol.positioning.fixes import DiscreteFixes
 from antikol.positioning.fleet import FleetState
 from antikol.positioning.inputs import check_state, checked_fix, checked_report, checked_reports
 from antikol.positioning.kalman import track_estimate
 from antikol.positioning.lineage import plan_slots
-from antikol.positioning.odometerhold import held_readings
-from antikol.positioning.odometerresolution import usable_readings
-from antikol.positioning.odometerscale import corrected_odometers
 from antikol.positioning.outputs import (
     asked_time,
     hypotheses_of,
     track_positions,
     unmatched_position,
 )
-from antikol.positioning.physics import implausible
 from antikol.positioning.placing import place_probabilities, place_vehicles
 from antikol.positioning.reach import ReachTable, state_id
 from antikol.positioning.records import DiscreteFix, FixPoint, Hypothesis, TrackPosition
 from antikol.positioning.scoring import Scored, score_fixes
+from antikol.positioning.screening import screen_reports
 from antikol.positioning.showing import as_shown, note_showing_evidence
 from antikol.positioning.siblings import SameWaySiblings
-from antikol.positioning.speedunits import in_recognised_units, learn_speed_units
+from antikol.positioning.speedunits import in_recognised_units
 from antikol.report import VehicleReport, one_per_vehicle
 from trackmap import TrackMap
 
@@ -101,7 +95,6 @@ __all__ = [
     "TrackPosition",
 ]
 
-logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -393,75 +386,20 @@ class Positioner:
 
     # -- one pass: at most one report per vehicle ------------------------------------------
     def _update_pass(self, reports: list[VehicleReport]) -> None:
-        c = self.config
-        n = len(reports)
         rows = np.array([self._row_of(r.vehicle_id) for r in reports], dtype=np.int64)
         for r in reports:
             self._cache.pop(r.vehicle_id, None)
-        t = np.fromiter((r.t for r in reports), float, n)
-        speed = np.fromiter((r.speed_mps for r in reports), float, n)
-        odo = np.fromiter(
-            (math.nan if r.odometer_m is None else r.odometer_m for r in reports), float, n
-        )
-        odo = held_readings(self._f, rows, t, speed * self._f.uscale[rows], odo)
-        odo = usable_readings(self._f, rows, corrected_odometers(self._f, rows, odo))
-        no_fix = np.fromiter((r.fix_quality in NOT_MEASURED for r in reports), bool, n)
-        # faults of the feed: a reset odometer leaves no baseline (this step runs on the
-        # speeds), a repeated position while the vehicle runs on is no fix
-        f = self._f
-        reset, glitch = unusable_odometers(
-            f, rows, t, speed, odo, max_accel_mps2=c.max_accel_mps2, max_speed_mps=c.max_speed_mps
-        )
-        lon = np.fromiter((r.lon for r in reports), float, n)
-        lat = np.fromiter((r.lat for r in reports), float, n)
-        stale = ~no_fix & stale_fixes(
-            lat, lon, [f.last[r] for r in rows.tolist()],
-            f.run_since_fix(rows, t, speed, odo), run_m=c.stale_fix_run_m,
-        )  # fmt: skip
-        no_fix |= stale
-        xs, ys = self.net.to_local(lon, lat)
-        xs, ys = np.atleast_1d(np.asarray(xs, float)), np.atleast_1d(np.asarray(ys, float))
-        speed = learn_speed_units(f, self.stats, rows, t, speed, xs, ys, ~no_fix, reports=reports)
-
-        # 1. physics: reject what a vehicle cannot do (the state stays untouched)
-        reason = implausible(self._f, c, rows, (t, speed, xs, ys), no_fix)
-        rejected = reason != ""
-        # a copy of the last rejected fix is no new evidence that the vehicle is elsewhere
-        repeat = rejected  # (all False when nothing is rejected)
-        if rejected.any():
-            repeat = f.repeats_rejected(rows, xs, ys, t, c.dead_reckoning_s)
-            f.note_rejected(rows[rejected], xs[rejected], ys[rejected])
-        for i in np.flatnonzero(rejected):
-            row = rows[i]
-            self._f.rejected[row] += 0 if repeat[i] else 1
-            self.stats[f"rejected_{reason[i]}"] += 1
-            if self._f.rejected[row] >= c.max_rejections_in_row:
-                self.stats["reset_after_rejections"] += 1
-                self._f.hs[row] = -1
-                self._f.rejected[row] = 0
-                rejected[i] = False
-            else:
-                logger.debug(
-                    "%s: report at t=%.1f rejected (%s)", reports[i].vehicle_id, t[i], reason[i]
-                )
-        keep = ~rejected
-        # (only now: a report that came late, its odometer behind the last one's, is
-        # rejected for its time and must not wipe the odometer's baseline)
-        faults = {"odometer_reset": reset & keep, "odometer_glitch": glitch & keep,
-                  "stale_fix": stale & keep}  # fmt: skip
-        unusable = faults["odometer_reset"] | faults["odometer_glitch"]
-        f.odo[rows[unusable]] = f.odo_fix[rows[unusable]] = np.nan
-        self.stats.update({k: int(v.sum()) for k, v in faults.items() if v.any()})
-
+        # 1. what of the reports can be used: the odometer, the feed's faults, physics
+        s = screen_reports(self._f, self.net, self.config, self.stats, reports, rows)
         # 2. reports without a position fix: dead reckoning on the odometer, if any
-        self._dead_reckon(np.flatnonzero(keep & no_fix), reports, rows, odo, outage=True)
-        fix = keep & ~no_fix
+        odo = s.odometer_m
+        self._dead_reckon(np.flatnonzero(s.keep & s.no_fix), reports, rows, odo, outage=True)
+        fix = s.keep & ~s.no_fix
         if not fix.any():
             return
         idx = np.flatnonzero(fix)
-        self._fuse(
-            [reports[i] for i in idx], rows[idx], t[idx], speed[idx], odo[idx], xs[idx], ys[idx]
-        )
+        self._fuse([reports[i] for i in idx], rows[idx], s.t[idx], s.speed_mps[idx], odo[idx],
+                   s.x_m[idx], s.y_m[idx])  # fmt: skip
 
     # -- the fusion of position fixes ----------------------------------------------------
     def _fuse(
@@ -710,7 +648,8 @@ class Positioner:
 
     def _place_probabilities(self, rows: IntArray) -> FloatArray:
         """:func:`~antikol.positioning.placing.place_probabilities` of ``rows``."""
-        return place_probabilities(self._f, self.reach, rows, same_place_m=_SAME_PLACE_M)
+        apart = {"same_place_m": _SAME_PLACE_M, "same_state_m": self.config.search_radius_m}
+        return place_probabilities(self._f, self.reach, rows, **apart)
 
     # -- discrete fixes ------------------------------------------------------------------
     def fix(self, vehicle_id: str, fix: DiscreteFix) -> TrackPosition | None:

@@ -318,10 +318,16 @@ def _way(net: TrackMap, first: Hypothesis, entered: int, moved: Advanced) -> lis
 
 
 def place_probabilities(
-    fleet: FleetState, reach: ReachTable, rows: npt.NDArray[np.int64], *, same_place_m: float
+    fleet: FleetState,
+    reach: ReachTable,
+    rows: npt.NDArray[np.int64],
+    *,
+    same_place_m: float,
+    same_state_m: float,
 ) -> npt.NDArray[np.float64]:
     """Probability of each vehicle's reported place: its hypothesis plus those at the same
-    spot (the same state, or within ``same_place_m`` across a plain node).
+    spot (the same state within ``same_state_m``, or within ``same_place_m`` across a
+    plain node).
 
     Parameters
     ----------
@@ -332,6 +338,13 @@ def place_probabilities(
         The vehicles' rows.
     same_place_m : float, keyword-only
         Hypotheses this close along the track are at the same spot, m.
+    same_state_m : float, keyword-only
+        Hypotheses of one state (edge and direction) farther apart along it than this are
+        at two places, m: a turning loop's two sides are one edge, metres apart across
+        and hundreds along (:func:`~antikol.positioning.candidates.find_candidates` gives
+        its other side a candidate only that far from its nearest point, twice the search
+        radius at least). Counted as one, a fix between the sides showed the vehicle on
+        the side holding 0.70 as 0.999, confident; the next fix took the other side.
 
     Returns
     -------
@@ -346,6 +359,7 @@ def place_probabilities(
     first = np.zeros(hs.shape[1], dtype=np.intp)  # slot 0 in every column
     others = np.where(filled, hs, 0)
     gap = reach.between(hs[:, first], ho[:, first], others, ho)
-    same = (hs == hs[:, first]) | (np.abs(gap) <= same_place_m)
+    same = (hs == hs[:, first]) & (np.abs(ho - ho[:, first]) <= same_state_m)
+    same |= np.abs(gap) <= same_place_m
     same[:, 0] = True
     return np.minimum(np.sum(np.where(same & filled, prob, 0.0), axis=1), 1.0)
