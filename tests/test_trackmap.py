@@ -414,6 +414,33 @@ def test_local_frame_round_trip():
     assert isinstance(FRAME.to_local(19.94, 50.06)[0], float)
 
 
+def test_direction_tags_that_disagree_or_cannot_be_read_are_listed(tmp_path):
+    b = OsmBuilder()
+    # railway:preferred_direction wins over oneway; the disagreement is listed
+    both = b.line([(0, 0), (0, 100)], **{"railway:preferred_direction": "forward", "oneway": "-1"})
+    odd = b.line([(50, 0), (50, 100)], oneway="yes;no")  # no running direction: untagged
+    b.line([(100, 0), (100, 100)], oneway="reversible")  # both ways, one at a time
+    b.line([(150, 0), (150, 100)], **{"railway:preferred_direction": "both", "oneway": "no"})
+    net = build(b, tmp_path)
+    by_way = {e.way_ids[0]: e for e in net.edges}
+    assert (by_way[both].direction, by_way[both].direction_source) == (1, "preferred_direction")
+    assert by_way[odd].direction_source != "oneway"
+    reversible = by_way[odd + 1]
+    assert (reversible.direction, reversible.direction_source) == (0, "oneway")
+    found = [f for f in check(net).warnings if f.code == "direction_tags"]
+    assert {f.message.split(":")[0] for f in found} == {f"way {both}", f"way {odd}"}
+    first = next(f for f in found if f.message.startswith(f"way {both}"))
+    assert "disagree" in first.message and first.edges == (by_way[both].edge_id,)
+    assert first.lon is not None and first.lat is not None
+    assert "oneway=yes;no is not a running direction" in next(
+        f.message for f in found if f is not first
+    )
+    # the list survives the map file
+    path = tmp_path / "m.json"
+    net.save(path)
+    again = [f.message for f in check(trackmap.load(path)).warnings if f.code == "direction_tags"]
+    assert sorted(again) == sorted(f.message for f in found)
+
 def test_check_finds_errors(tmp_path):
     b = OsmBuilder()
     n = b.node(0, 100)

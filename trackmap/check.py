@@ -26,7 +26,10 @@ Warnings:
 * ``outside_bounds`` — an edge with vertices more than ``bounds_margin_m`` outside the
   extent the source declared (its ``<bounds>`` or ``bbox``);
 * ``driving_side`` — the map was built for the other driving side than its tagged double
-  track shows (a side given by name): its untagged double track runs the wrong way round.
+  track shows (a side given by name): its untagged double track runs the wrong way round;
+* ``direction_tags`` — a way whose ``railway:preferred_direction`` and ``oneway`` disagree
+  (the first is used), or whose value of either is no running direction (``oneway=yes;no``:
+  the way counts as untagged there, and its direction may be inferred).
 
 Notes (facts about the map, not problems):
 
@@ -241,6 +244,16 @@ def check(
         report.warnings.append(
             Finding("duplicate_track", f"ways {list(group)} run over the same nodes (kept once)")
         )
+    edges_of_way: dict[int, list[int]] = {}
+    for e in net.edges:
+        for w in e.way_ids:
+            edges_of_way.setdefault(w, []).append(e.edge_id)
+    for way, doubt in net.metadata.source.get("direction_tag_doubts", []):
+        on = tuple(edges_of_way.get(int(way), ()))
+        place: tuple[float | None, float | None] = (None, None)
+        if on:  # (a way cut down to nothing by the extract's edge has no edge)
+            place = _middle(net.edges[on[0]], at)
+        report.warnings.append(Finding("direction_tags", f"way {way}: {doubt}", *place, on))
     for a, b, x, y in net.metadata.source.get("overlapping_edges", []):
         lon, lat = at(x, y)
         report.warnings.append(

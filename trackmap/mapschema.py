@@ -185,6 +185,10 @@ _SOURCE: Final = {
         "ways": _COUNT,
         "dropped": {"type": "object", "additionalProperties": _COUNT},
         "duplicate_ways": {"type": "array", "items": {"type": "array", "items": _INT64}},
+        "direction_tag_doubts": {
+            "type": "array",
+            "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": [_INT64, _TEXT]},
+        },
         "overlapping_edges": {
             "type": "array",
             "items": {

@@ -27,6 +27,7 @@ from trackmap.builder.sources import RawStop, SourceData, check_kinds, read_sour
 from trackmap.builder.topology import (
     Piece,
     classify_node,
+    direction_tag_doubt,
     drop_duplicate_pieces,
     find_crossings,
     fouling_distance,
@@ -223,6 +224,7 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
         "ways": data.kept_ways,
         "dropped": dict(data.dropped),
         "duplicate_ways": [list(g) for g in duplicates],
+        "direction_tag_doubts": _direction_tag_doubts(data),
         "overlapping_edges": overlaps,
         "driving_side_evidence": {
             "right_m": round(tally.right_m, 1),
@@ -503,3 +505,19 @@ def _snap_stops(
             Stop(stop_id=st.node_id, name=st.name, lon=st.lon, lat=st.lat, edge_id=e, offset_m=off)
         )
     return out
+
+
+def _direction_tag_doubts(data: SourceData) -> list[list[int | str]]:
+    """[way id, what is doubtful] of each kept way whose direction tags this builder
+    cannot read or that disagree (logged once per source file)."""
+    doubts: list[list[int | str]] = []
+    for w in data.ways:
+        doubt = direction_tag_doubt(w.tags)
+        if doubt is not None:
+            doubts.append([w.way_id, doubt])
+    if doubts:
+        logger.warning(
+            "%s: %d way(s) with direction tags that cannot be read or disagree, e.g. way %d: "
+            "%s ('trackmap check' lists them)", data.path, len(doubts), *doubts[0],
+        )  # fmt: skip
+    return doubts

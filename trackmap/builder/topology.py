@@ -28,6 +28,7 @@ from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations
+from typing import Final
 
 import numpy as np
 import shapely
@@ -45,6 +46,7 @@ __all__ = [
     "TrackAttributes",
     "classify_node",
     "direction_tag",
+    "direction_tag_doubt",
     "drop_duplicate_pieces",
     "find_crossings",
     "fouling_distance",
@@ -62,8 +64,21 @@ EdgeEnd = tuple[int, int]
 
 
 # -- tags ---------------------------------------------------------------------------------
+#: ``railway:preferred_direction`` values, as running directions relative to node order.
+_PREFERRED: Final = {"forward": 1, "backward": -1, "both": 0}
+#: ``oneway`` values, likewise; ``reversible`` and ``alternating`` ways carry traffic both
+#: ways (one at a time), which is what matters to who may meet whom.
+_ONEWAY: Final = {
+    "yes": 1, "true": 1, "1": 1, "-1": -1, "reverse": -1,
+    "no": 0, "false": 0, "0": 0, "reversible": 0, "alternating": 0,
+}  # fmt: skip
+
+
 def direction_tag(tags: Mapping[str, str]) -> tuple[int, str]:
     """Running direction a way's tags declare, relative to its node order.
+
+    ``railway:preferred_direction`` wins over ``oneway`` (it is the railway tag; see
+    :func:`direction_tag_doubt` for ways whose two tags disagree).
 
     Returns
     -------
@@ -71,17 +86,37 @@ def direction_tag(tags: Mapping[str, str]) -> tuple[int, str]:
         direction +1 (node order), -1 (against it) or 0 (both ways); source
         ``preferred_direction``, ``oneway`` or ``none``.
     """
-    pref = tags.get("railway:preferred_direction")
-    if pref in ("forward", "backward", "both"):
-        return {"forward": 1, "backward": -1, "both": 0}[pref], "preferred_direction"
-    oneway = tags.get("oneway")
-    if oneway in ("yes", "true", "1"):
-        return 1, "oneway"
-    if oneway in ("-1", "reverse"):
-        return -1, "oneway"
-    if oneway in ("no", "false", "0"):
-        return 0, "oneway"
+    pref = _PREFERRED.get(tags.get("railway:preferred_direction", ""))
+    if pref is not None:
+        return pref, "preferred_direction"
+    oneway = _ONEWAY.get(tags.get("oneway", ""))
+    if oneway is not None:
+        return oneway, "oneway"
     return 0, "none"
+
+
+def direction_tag_doubt(tags: Mapping[str, str]) -> str | None:
+    """What a maintainer should look at in a way's direction tags, or None: a value this
+    builder does not read (the way counts as untagged there) or two tags that disagree
+    (``railway:preferred_direction`` is used)."""
+    doubts = []
+    values = {}
+    for key, known in (("railway:preferred_direction", _PREFERRED), ("oneway", _ONEWAY)):
+        value = tags.get(key)
+        if value is None:
+            continue
+        if value not in known:
+            doubts.append(f"{key}={value} is not a running direction (read as untagged)")
+        else:
+            values[key] = value
+    if len(values) == 2:
+        pref, oneway = values["railway:preferred_direction"], values["oneway"]
+        if _PREFERRED[pref] != _ONEWAY[oneway]:
+            doubts.append(
+                f"railway:preferred_direction={pref} and oneway={oneway} disagree "
+                f"(railway:preferred_direction={pref} is used)"
+            )
+    return "; ".join(doubts) or None
 
 
 _SPEED = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*(km/h|kmh|kph|mph|knots)?\s*$")
