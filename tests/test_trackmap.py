@@ -441,6 +441,21 @@ def test_direction_tags_that_disagree_or_cannot_be_read_are_listed(tmp_path):
     again = [f.message for f in check(trackmap.load(path)).warnings if f.code == "direction_tags"]
     assert sorted(again) == sorted(f.message for f in found)
 
+def test_a_way_drawn_for_two_tracks_runs_both_ways_and_is_listed(tmp_path):
+    b = OsmBuilder()
+    # a double track drawn as two one-way lines 3.5 m apart, then as one line (tracks=2)
+    b.line([(0.0, 0), (0.0, 300)], oneway="yes")
+    b.line([(3.5, 300), (3.5, 0)], oneway="yes")
+    one = b.line([(200, 0), (200, 300)], tracks="2")
+    beside = b.line([(203.5, 0), (203.5, 300)])  # untagged, beside it: not paired with it
+    net = build(b, tmp_path)
+    by_way = {e.way_ids[0]: e for e in net.edges}
+    assert (by_way[one].direction, by_way[one].direction_source) == (0, "tracks")
+    assert by_way[beside].direction_source != "tracks"
+    found = [f for f in check(net).warnings if f.code == "multi_track_way"]
+    assert [f.edges for f in found] == [(by_way[one].edge_id,)]
+    assert found[0].message.startswith(f"way {one} is one line for 2 tracks")
+
 def test_check_finds_errors(tmp_path):
     b = OsmBuilder()
     n = b.node(0, 100)

@@ -27,6 +27,8 @@ Warnings:
   extent the source declared (its ``<bounds>`` or ``bbox``);
 * ``driving_side`` — the map was built for the other driving side than its tagged double
   track shows (a side given by name): its untagged double track runs the wrong way round;
+* ``multi_track_way`` — a way drawn as one line for several tracks (``tracks=2``): it runs
+  both ways (unless tagged), and vehicles on it are not told apart by track;
 * ``direction_tags`` — a way whose ``railway:preferred_direction`` and ``oneway`` disagree
   (the first is used), or whose value of either is no running direction (``oneway=yes;no``:
   the way counts as untagged there, and its direction may be inferred).
@@ -250,10 +252,21 @@ def check(
             edges_of_way.setdefault(w, []).append(e.edge_id)
     for way, doubt in net.metadata.source.get("direction_tag_doubts", []):
         on = tuple(edges_of_way.get(int(way), ()))
-        place: tuple[float | None, float | None] = (None, None)
-        if on:  # (a way cut down to nothing by the extract's edge has no edge)
-            place = _middle(net.edges[on[0]], at)
+        place = _first_middle(net, on, at)
         report.warnings.append(Finding("direction_tags", f"way {way}: {doubt}", *place, on))
+    for way, tracks in net.metadata.source.get("multi_track_ways", []):
+        on = tuple(edges_of_way.get(int(way), ()))
+        place = _first_middle(net, on, at)
+        report.warnings.append(
+            Finding(
+                "multi_track_way",
+                f"way {way} is one line for {tracks} tracks: vehicles on it are not told "
+                "apart by track, and two meeting there are a head-on conflict to the analyser "
+                "(draw each track as its own way)",
+                *place,
+                on,
+            )
+        )
     for a, b, x, y in net.metadata.source.get("overlapping_edges", []):
         lon, lat = at(x, y)
         report.warnings.append(
@@ -307,6 +320,14 @@ def _boundaries(net: TrackMap, report: CheckReport) -> set[int]:
 def _middle(e: Edge, at: Callable[[float, float], tuple[float, float]]) -> tuple[float, float]:
     """The middle of an edge along its line, degrees (lon, lat)."""
     return at(*e.geometry.interpolate(0.5, normalized=True).coords[0])
+
+
+def _first_middle(
+    net: TrackMap, edges: tuple[int, ...], at: Callable[[float, float], tuple[float, float]]
+) -> tuple[float | None, float | None]:
+    """The middle of the first of ``edges`` (degrees), or no place when there is none (a
+    way the extract's edge cut down to nothing)."""
+    return _middle(net.edges[edges[0]], at) if edges else (None, None)
 
 
 def _driving_side(net: TrackMap, report: CheckReport) -> None:

@@ -54,7 +54,9 @@ MAX_ENDS_PER_NODE: Final = 64
 #: Speed limits above this are not track speeds, m/s (540 km/h).
 MAX_SPEED_MPS: Final = 150.0
 #: Where an edge's running direction came from.
-DIRECTION_SOURCES: Final = ("preferred_direction", "oneway", "driving_side", "propagated", "none")
+DIRECTION_SOURCES: Final = (
+    "preferred_direction", "oneway", "tracks", "driving_side", "propagated", "none",
+)  # fmt: skip
 
 _INT64: Final = {"type": "integer", "minimum": INT64_MIN, "maximum": INT64_MAX}
 _COUNT: Final = {"type": "integer", "minimum": 0, "maximum": INT64_MAX}
@@ -185,6 +187,10 @@ _SOURCE: Final = {
         "ways": _COUNT,
         "dropped": {"type": "object", "additionalProperties": _COUNT},
         "duplicate_ways": {"type": "array", "items": {"type": "array", "items": _INT64}},
+        "multi_track_ways": {
+            "type": "array",
+            "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": [_INT64, _COUNT]},
+        },
         "direction_tag_doubts": {
             "type": "array",
             "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": [_INT64, _TEXT]},

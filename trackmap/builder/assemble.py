@@ -28,6 +28,7 @@ from trackmap.builder.topology import (
     Piece,
     classify_node,
     direction_tag_doubt,
+    drawn_tracks,
     drop_duplicate_pieces,
     find_crossings,
     fouling_distance,
@@ -225,6 +226,9 @@ def assemble(data: SourceData, *, driving_side: str, params: dict[str, object]) 
         "dropped": dict(data.dropped),
         "duplicate_ways": [list(g) for g in duplicates],
         "direction_tag_doubts": _direction_tag_doubts(data),
+        "multi_track_ways": [
+            [w.way_id, drawn_tracks(w.tags)] for w in data.ways if drawn_tracks(w.tags) > 1
+        ],
         "overlapping_edges": overlaps,
         "driving_side_evidence": {
             "right_m": round(tally.right_m, 1),

@@ -47,6 +47,7 @@ __all__ = [
     "classify_node",
     "direction_tag",
     "direction_tag_doubt",
+    "drawn_tracks",
     "drop_duplicate_pieces",
     "find_crossings",
     "fouling_distance",
@@ -80,11 +81,14 @@ def direction_tag(tags: Mapping[str, str]) -> tuple[int, str]:
     ``railway:preferred_direction`` wins over ``oneway`` (it is the railway tag; see
     :func:`direction_tag_doubt` for ways whose two tags disagree).
 
+    A way drawn for several tracks (``tracks=2``) with neither tag carries traffic both
+    ways: no direction is inferred for it.
+
     Returns
     -------
     (direction, source)
         direction +1 (node order), -1 (against it) or 0 (both ways); source
-        ``preferred_direction``, ``oneway`` or ``none``.
+        ``preferred_direction``, ``oneway``, ``tracks`` or ``none``.
     """
     pref = _PREFERRED.get(tags.get("railway:preferred_direction", ""))
     if pref is not None:
@@ -92,7 +96,16 @@ def direction_tag(tags: Mapping[str, str]) -> tuple[int, str]:
     oneway = _ONEWAY.get(tags.get("oneway", ""))
     if oneway is not None:
         return oneway, "oneway"
+    if drawn_tracks(tags) > 1:  # (two tracks, one each way, drawn as one line)
+        return 0, "tracks"
     return 0, "none"
+
+
+def drawn_tracks(tags: Mapping[str, str]) -> int:
+    """How many parallel tracks a way's one line stands for (``tracks``; 1 when absent or
+    not a whole number from 1 to 20)."""
+    value = tags.get("tracks", "").strip()
+    return int(value) if value.isdigit() and 1 <= int(value) <= 20 else 1
 
 
 def direction_tag_doubt(tags: Mapping[str, str]) -> str | None:
