@@ -99,19 +99,22 @@ def find_candidates(
     # (from every edge in reach, before the overshoot test: where a loop closes, a fix
     # beyond its start lies beside its end, and the start's overshoot must not hide that)
     in_reach = batch.distance_m <= radius[batch.point]
-    extra = [k for k in np.flatnonzero(in_reach).tolist() if int(batch.edge_id[k]) in loops]
-    if not extra:
+    extra = np.flatnonzero(in_reach & np.isin(batch.edge_id, np.fromiter(loops, np.int64)))
+    if not len(extra):
         return found
     rows: list[tuple[int, int, float, float, float]] = []
-    for k in extra:
-        e = int(batch.edge_id[k])
-        i = int(batch.point[k])
+    for e, i, nearest_m in zip(
+        batch.edge_id[extra].tolist(),
+        batch.point[extra].tolist(),
+        batch.offset_m[extra].tolist(),
+        strict=True,
+    ):
         off, lateral_m, overshoot_m, heading_deg = _other_half(
-            net, loops[e], e, xs[i], ys[i], float(batch.offset_m[k])
+            net, loops[e], e, xs[i], ys[i], nearest_m
         )
         if math.hypot(lateral_m, overshoot_m) > radius[i] or overshoot_m > END_OVERSHOOT_M:
             continue
-        if abs(off - float(batch.offset_m[k])) < 2.0 * radius[i]:
+        if abs(off - nearest_m) < 2.0 * radius[i]:
             continue  # (the same place as the edge's nearest point)
         rows.append((i, e, off, math.copysign(math.hypot(lateral_m, overshoot_m), lateral_m),
                      heading_deg))  # fmt: skip
