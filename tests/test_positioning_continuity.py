@@ -54,6 +54,7 @@ _DECIDED_BY_ONE_FIX = "a_stray_fix_decides_a_branch_at_walking_pace.json"
 _FAR_BESIDE_BRANCHES = "a_fix_far_beside_two_close_branches.json"
 _TOSS_UNDECIDED = "a_coin_toss_at_a_switch_undecided_at_the_next_fix.json"
 _REFUSED_RUN = "a_bias_jump_beyond_the_search_radius_of_a_refused_run.json"
+_UNREACHED_HOLD = "a_same_way_hold_of_a_lineage_no_move_reaches.json"
 
 
 @pytest.fixture(scope="module")
@@ -566,6 +567,22 @@ def test_a_bias_jump_beyond_the_search_radius_keeps_the_tram_on_its_track():
     assert not any(p.wrong_way for p in out)
     assert all(p.status == "confident" for p in moving)
 
+
+
+def test_a_lineage_no_move_reaches_is_not_held_beside_a_same_way_track():
+    # a harsher street receiver whose course field reads 0 all along (a feed's "no
+    # heading"), 40/6 on the embedded map: at t = 447 s no move reached the lineage's
+    # place from any hypothesis (probability 0, progress along the track infinite), but
+    # the same-way hold keeps a lineage "however little is left of it". Its infinite
+    # progress went into the along-track filter: the position's offset became NaN and
+    # Positioner.update raised AttributeError (a crash of the on-board loop)
+    out = _replay_recorded(trackmap.load_default(), _UNREACHED_HOLD, "40/6")
+    placed = [p for p in out if p.edge_id is not None]
+    assert len(placed) > 60
+    for p in placed:
+        assert math.isfinite(p.offset_m) and math.isfinite(p.lon) and math.isfinite(p.lat)
+        assert p.sigma_m is None or math.isfinite(p.sigma_m)
+        assert all(math.isfinite(h.progress_m) for h in p.hypotheses)
 
 def test_a_standing_tram_keeps_its_track_beside_a_corner_of_another():
     # street GPS (the simulator's urban model): a tram stands 20 s (t = 412-431 s) 17 m

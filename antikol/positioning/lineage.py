@@ -142,7 +142,8 @@ def plan_slots(
         asked = np.flatnonzero(held & (p[best] >= TOSS_LEAD))
         if tossed is not None and len(asked):
             held[asked] = ~tossed(go[asked], best[asked], lineage[asked])
-        ask = np.flatnonzero(has_lineage & ~of_own & ~held)
+        # (a lineage no move reaches has nothing left at all, p = 0: its place is gone)
+        ask = np.flatnonzero(has_lineage & ~of_own & ~held & (p[lineage] > 0.0))
         if same_way is not None and len(ask):
             # however little is left of it: it is held only until the tracks meet
             beside = same_way(go[ask], best[ask], lineage[ask])
