@@ -584,6 +584,31 @@ def test_a_lineage_no_move_reaches_is_not_held_beside_a_same_way_track():
         assert p.sigma_m is None or math.isfinite(p.sigma_m)
         assert all(math.isfinite(h.progress_m) for h in p.hypotheses)
 
+
+def test_a_lineage_progress_that_is_no_number_restarts_the_vehicle(straight, monkeypatch):
+    # the last defence behind the fix above: whatever path hands the matcher a lineage
+    # progress of inf or NaN, the vehicle starts afresh (counted) instead of its filters and
+    # position turning into NaN
+    import antikol.positioning.matcher as matcher_module
+
+    real, calls = matcher_module.score_fixes, []
+
+    def poisoned(*args, **kwargs):
+        scored = real(*args, **kwargs)
+        calls.append(1)
+        if len(calls) == 8:
+            return dataclasses.replace(scored, progress=np.full_like(scored.progress, np.inf))
+        return scored
+
+    monkeypatch.setattr(matcher_module, "score_fixes", poisoned)
+    pos = Positioner(straight)
+    out = [pos.update(r) for r in _on_the_line(10.0, 20)]
+    assert pos.stats["progress_not_finite"] == 1
+    placed = [p for p in out if p.offset_m is not None]
+    assert placed and all(math.isfinite(p.offset_m) and math.isfinite(p.lat) for p in placed)
+    assert all(math.isfinite(h.progress_m) for p in out for h in p.hypotheses)
+    assert out[-1].status == "confident"
+
 def test_a_standing_tram_keeps_its_track_beside_a_corner_of_another():
     # street GPS (the simulator's urban model): a tram stands 20 s (t = 412-431 s) 17 m
     # from a bend of another track. A stray fix started a hypothesis there, on the bend's

@@ -603,6 +603,13 @@ class Positioner:
             getattr(f, name)[r, col] = values[m_idx]
         self.stats["lineage_switch"] += int(np.count_nonzero(switched))
         f.confident_run[done[switched]] = 0  # the reported place's run starts again
+        # (a last defence: a lineage's progress that is no number would turn the filters
+        # and the position into NaN; it starts afresh instead, counted)
+        lost_track = ~np.isfinite(progress)
+        if lost_track.any():
+            progress[lost_track] = f.hg[done[lost_track], 0] = 0.0
+            switched |= lost_track
+            self.stats["progress_not_finite"] += int(np.count_nonzero(lost_track))
         run_track_filters(
             f,
             c,
