@@ -568,7 +568,6 @@ def test_a_bias_jump_beyond_the_search_radius_keeps_the_tram_on_its_track():
     assert all(p.status == "confident" for p in moving)
 
 
-
 def test_a_lineage_no_move_reaches_is_not_held_beside_a_same_way_track():
     # a harsher street receiver whose course field reads 0 all along (a feed's "no
     # heading"), 40/6 on the embedded map: at t = 447 s no move reached the lineage's
@@ -608,6 +607,7 @@ def test_a_lineage_progress_that_is_no_number_restarts_the_vehicle(straight, mon
     assert placed and all(math.isfinite(p.offset_m) and math.isfinite(p.lat) for p in placed)
     assert all(math.isfinite(h.progress_m) for p in out for h in p.hypotheses)
     assert out[-1].status == "confident"
+
 
 def test_a_standing_tram_keeps_its_track_beside_a_corner_of_another():
     # street GPS (the simulator's urban model): a tram stands 20 s (t = 412-431 s) 17 m

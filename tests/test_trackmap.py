@@ -441,6 +441,7 @@ def test_direction_tags_that_disagree_or_cannot_be_read_are_listed(tmp_path):
     again = [f.message for f in check(trackmap.load(path)).warnings if f.code == "direction_tags"]
     assert sorted(again) == sorted(f.message for f in found)
 
+
 def test_a_way_drawn_for_two_tracks_runs_both_ways_and_is_listed(tmp_path):
     b = OsmBuilder()
     # a double track drawn as two one-way lines 3.5 m apart, then as one line (tracks=2)
@@ -455,6 +456,7 @@ def test_a_way_drawn_for_two_tracks_runs_both_ways_and_is_listed(tmp_path):
     found = [f for f in check(net).warnings if f.code == "multi_track_way"]
     assert [f.edges for f in found] == [(by_way[one].edge_id,)]
     assert found[0].message.startswith(f"way {one} is one line for 2 tracks")
+
 
 def test_check_finds_errors(tmp_path):
     b = OsmBuilder()
