@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import trackmap
@@ -456,6 +456,29 @@ def test_a_way_drawn_for_two_tracks_runs_both_ways_and_is_listed(tmp_path):
     found = [f for f in check(net).warnings if f.code == "multi_track_way"]
     assert [f.edges for f in found] == [(by_way[one].edge_id,)]
     assert found[0].message.startswith(f"way {one} is one line for 2 tracks")
+
+
+_TAG_TEXT = st.one_of(
+    st.sampled_from(["yes", "no", "-1", "forward", "backward", "both", "2", "reversible"]),
+    st.text(max_size=8),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.dictionaries(st.sampled_from(["railway:preferred_direction", "oneway", "tracks"]), _TAG_TEXT)
+)
+@example({"tracks": "²"})  # (a digit to str.isdigit, not to int())
+def test_direction_tags_of_any_text_are_read_without_error(tags):
+    from trackmap.builder.topology import direction_tag, direction_tag_doubt, drawn_tracks
+
+    direction, source = direction_tag(tags)
+    assert direction in (-1, 0, 1)
+    assert source in ("preferred_direction", "oneway", "tracks", "none")
+    assert 1 <= drawn_tracks(tags) <= 20
+    doubt = direction_tag_doubt(tags)
+    if doubt is None and source == "none":  # (nothing readable, nothing doubtful: no tags)
+        assert not {"railway:preferred_direction", "oneway"} & set(tags)
 
 
 def test_check_finds_errors(tmp_path):

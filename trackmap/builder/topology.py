@@ -105,7 +105,9 @@ def drawn_tracks(tags: Mapping[str, str]) -> int:
     """How many parallel tracks a way's one line stands for (``tracks``; 1 when absent or
     not a whole number from 1 to 20)."""
     value = tags.get("tracks", "").strip()
-    return int(value) if value.isdigit() and 1 <= int(value) <= 20 else 1
+    # (isdigit alone admits "²", which int() refuses)
+    number = int(value) if value.isascii() and value.isdigit() else 1
+    return number if 1 <= number <= 20 else 1
 
 
 def direction_tag_doubt(tags: Mapping[str, str]) -> str | None:
